@@ -1,0 +1,305 @@
+"""Compiled closed-form dynamics of a planar serial arm.
+
+Every function here is a numba ``njit`` kernel over plain float arrays, written as loops over
+scalars so that the simulator's compiled loop can call it without touching Python objects.
+Nothing here allocates: callers pass the output arrays and a workspace.
+
+The arm is described by one array ``arm`` of shape ``(4, n)`` whose rows are the link masses
+``m``, lengths ``l``, centre-of-mass distances ``c`` and centroidal inertias ``I``, and by the
+gravity magnitude ``g`` (gravity acts along ``-y``).
+
+Notation: absolute link angles :math:`\\phi_i = \\sum_{j \\le i} q_j`, absolute rates
+:math:`\\omega_i = \\sum_{j \\le i} \\dot q_j`, unit vectors :math:`u_i = (\\cos\\phi_i, \\sin\\phi_i)`
+and :math:`u_i^\\perp = (-\\sin\\phi_i, \\cos\\phi_i)`. The centre of mass of link ``i`` has the
+translational Jacobian whose column ``j \\le i`` is
+
+.. math:: J_{c,i}[:, j] = \\sum_{a=j}^{i-1} l_a u_a^\\perp + c_i u_i^\\perp ,
+
+and zero for ``j > i``; its rotational Jacobian is the row of ones up to ``i``. Hence
+
+.. math::
+
+    M = \\sum_i m_i J_{c,i}^T J_{c,i} + I_i \\mathbf{1}_{\\le i} \\mathbf{1}_{\\le i}^T, \\qquad
+    C = \\sum_i m_i J_{c,i}^T \\dot J_{c,i}, \\qquad
+    G_j = g \\sum_i m_i J_{c,i}[y, j].
+
+With this factorisation :math:`\\dot M - 2C = \\sum_i m_i (\\dot J^T J - J^T \\dot J)` is
+skew-symmetric, and :math:`C \\dot q` is the Coriolis and centrifugal torque of the Lagrangian
+equations (in the plane the rotational part carries no gyroscopic term).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = [
+    "WORK_ROWS",
+    "bias_into",
+    "cholesky_solve_into",
+    "coriolis_into",
+    "forward_dynamics_into",
+    "gravity_into",
+    "inverse_dynamics_into",
+    "mass_matrix_into",
+]
+
+#: Rows of the ``(WORK_ROWS, n)`` workspace that :func:`forward_dynamics_into` needs.
+WORK_ROWS = 8
+
+_CACHE = True
+
+
+@njit(cache=_CACHE, fastmath=False, nogil=True)
+def _angles(q: np.ndarray, cphi: np.ndarray, sphi: np.ndarray) -> None:
+    """Cosine and sine of the absolute link angles ``phi_i = q_0 + ... + q_i``."""
+    phi = 0.0
+    for i in range(q.shape[0]):
+        phi += q[i]
+        cphi[i] = math.cos(phi)
+        sphi[i] = math.sin(phi)
+
+
+@njit(cache=_CACHE, nogil=True)
+def mass_matrix_into(arm: np.ndarray, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """Fill ``out`` (n, n) with the joint-space inertia matrix :math:`M(q)`.
+
+    ``work`` is a ``(WORK_ROWS, n)`` scratch array.
+    """
+    n = q.shape[0]
+    cphi = work[0]
+    sphi = work[1]
+    _angles(q, cphi, sphi)
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = 0.0
+    for i in range(n):
+        m = arm[0, i]
+        inert = arm[3, i]
+        # columns j <= i of J_{c,i}, built from the tip of link i back to the base
+        # stored in work rows 2 (x) and 3 (y)
+        jx = -arm[2, i] * sphi[i]
+        jy = arm[2, i] * cphi[i]
+        work[2, i] = jx
+        work[3, i] = jy
+        for j in range(i - 1, -1, -1):
+            jx -= arm[1, j] * sphi[j]
+            jy += arm[1, j] * cphi[j]
+            work[2, j] = jx
+            work[3, j] = jy
+        for a in range(i + 1):
+            for b in range(a, i + 1):
+                out[a, b] += m * (work[2, a] * work[2, b] + work[3, a] * work[3, b]) + inert
+    for a in range(n):
+        for b in range(a):
+            out[a, b] = out[b, a]
+
+
+@njit(cache=_CACHE, nogil=True)
+def coriolis_into(
+    arm: np.ndarray, q: np.ndarray, qd: np.ndarray, out: np.ndarray, work: np.ndarray
+) -> None:
+    """Fill ``out`` (n, n) with the Coriolis matrix :math:`C(q, \\dot q) = \\sum m_i J^T \\dot J`.
+
+    With this choice :math:`\\dot M - 2C` is skew-symmetric.
+    """
+    n = q.shape[0]
+    cphi = work[0]
+    sphi = work[1]
+    _angles(q, cphi, sphi)
+    omega = work[4]
+    w = 0.0
+    for i in range(n):
+        w += qd[i]
+        omega[i] = w
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = 0.0
+    for i in range(n):
+        m = arm[0, i]
+        c = arm[2, i]
+        jx = -c * sphi[i]
+        jy = c * cphi[i]
+        # d/dt of u_perp(phi) is -omega * u(phi)
+        djx = -c * omega[i] * cphi[i]
+        djy = -c * omega[i] * sphi[i]
+        work[2, i] = jx
+        work[3, i] = jy
+        work[5, i] = djx
+        work[6, i] = djy
+        for j in range(i - 1, -1, -1):
+            lj = arm[1, j]
+            jx -= lj * sphi[j]
+            jy += lj * cphi[j]
+            djx -= lj * omega[j] * cphi[j]
+            djy -= lj * omega[j] * sphi[j]
+            work[2, j] = jx
+            work[3, j] = jy
+            work[5, j] = djx
+            work[6, j] = djy
+        for a in range(i + 1):
+            for b in range(i + 1):
+                out[a, b] += m * (work[2, a] * work[5, b] + work[3, a] * work[6, b])
+
+
+@njit(cache=_CACHE, nogil=True)
+def gravity_into(arm: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """Fill ``out`` (n,) with the gravity torque :math:`G(q) = \\partial V / \\partial q`.
+
+    .. math:: G_j = g \\sum_{i \\ge j} m_i \\Big(\\sum_{a=j}^{i-1} l_a \\cos\\phi_a
+              + c_i \\cos\\phi_i\\Big)
+    """
+    n = q.shape[0]
+    cphi = work[0]
+    sphi = work[1]
+    _angles(q, cphi, sphi)
+    # Backward recursion: mass outboard of joint j and its first moment about joint j.
+    mass_out = 0.0  # total mass of links j+1..n-1
+    moment = 0.0  # sum over links > j of m_i * x-offset from joint j+1
+    for j in range(n - 1, -1, -1):
+        # moment about joint j = own link + outboard mass carried along link j
+        mj = arm[0, j]
+        own = mj * arm[2, j] * cphi[j]
+        moment = own + mass_out * arm[1, j] * cphi[j] + moment
+        mass_out += mj
+        out[j] = g * moment
+
+
+@njit(cache=_CACHE, nogil=True)
+def bias_into(
+    arm: np.ndarray, g: float, q: np.ndarray, qd: np.ndarray, out: np.ndarray, work: np.ndarray
+) -> None:
+    """Fill ``out`` (n,) with :math:`h(q, \\dot q) = C(q, \\dot q)\\dot q + G(q)`.
+
+    Computed by the planar recursive Newton-Euler algorithm with zero joint acceleration and
+    the base accelerated upwards by ``g`` (the usual way of folding gravity in), O(n).
+    """
+    _rnea(arm, g, q, qd, qd, 0.0, out, work)
+
+
+@njit(cache=_CACHE, nogil=True)
+def inverse_dynamics_into(
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Fill ``out`` (n,) with :math:`\\tau = M(q)\\ddot q + C(q,\\dot q)\\dot q + G(q)` (RNEA)."""
+    _rnea(arm, g, q, qd, qdd, 1.0, out, work)
+
+
+@njit(cache=_CACHE, nogil=True)
+def _rnea(
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    qdd_scale: float,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Planar recursive Newton-Euler; ``qdd`` is multiplied by ``qdd_scale`` (0 drops it)."""
+    n = q.shape[0]
+    cphi = work[0]
+    sphi = work[1]
+    _angles(q, cphi, sphi)
+    # forward pass: absolute rates, accelerations, COM accelerations (stored in rows 2..5)
+    w = 0.0
+    wd = 0.0
+    ax = 0.0  # acceleration of the current joint origin
+    ay = g
+    for i in range(n):
+        w += qd[i]
+        wd += qdd_scale * qdd[i]
+        c = arm[2, i]
+        l_i = arm[1, i]
+        # r = c u, a_c = a_o + wd * (perp r) - w^2 r
+        work[2, i] = ax + wd * (-c * sphi[i]) - w * w * c * cphi[i]
+        work[3, i] = ay + wd * (c * cphi[i]) - w * w * c * sphi[i]
+        work[4, i] = wd
+        ax = ax + wd * (-l_i * sphi[i]) - w * w * l_i * cphi[i]
+        ay = ay + wd * (l_i * cphi[i]) - w * w * l_i * sphi[i]
+    # backward pass: force f_i transmitted by joint i onto link i, moment n_i about joint i
+    fx = 0.0
+    fy = 0.0
+    mom = 0.0
+    for i in range(n - 1, -1, -1):
+        m = arm[0, i]
+        c = arm[2, i]
+        l_i = arm[1, i]
+        gx = m * work[2, i]
+        gy = m * work[3, i]
+        # moment about joint i: I wd + r_c x (m a_c) + r_l x f_{i+1} + n_{i+1}
+        mom = (
+            arm[3, i] * work[4, i]
+            + c * (cphi[i] * gy - sphi[i] * gx)
+            + l_i * (cphi[i] * fy - sphi[i] * fx)
+            + mom
+        )
+        fx += gx
+        fy += gy
+        out[i] = mom
+
+
+@njit(cache=_CACHE, nogil=True)
+def cholesky_solve_into(a: np.ndarray, b: np.ndarray, out: np.ndarray, lw: np.ndarray) -> bool:
+    """Solve ``a x = b`` for symmetric positive definite ``a`` (n, n) by Cholesky.
+
+    ``lw`` is an (n, n) scratch array for the factor. Returns ``False`` if ``a`` is not
+    positive definite (then ``out`` is left undefined).
+    """
+    n = b.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            s = a[i, j]
+            for k in range(j):
+                s -= lw[i, k] * lw[j, k]
+            if i == j:
+                if not s > 0.0:
+                    return False
+                lw[i, i] = math.sqrt(s)
+            else:
+                lw[i, j] = s / lw[j, j]
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= lw[i, k] * out[k]
+        out[i] = s / lw[i, i]
+    for i in range(n - 1, -1, -1):
+        s = out[i]
+        for k in range(i + 1, n):
+            s -= lw[k, i] * out[k]
+        out[i] = s / lw[i, i]
+    return True
+
+
+@njit(cache=_CACHE, nogil=True)
+def forward_dynamics_into(
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    mmat: np.ndarray,
+    lw: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """Fill ``out`` (n,) with :math:`\\ddot q = M(q)^{-1}(\\tau - h(q, \\dot q))`.
+
+    ``mmat`` and ``lw`` are (n, n) scratch arrays, ``work`` is ``(WORK_ROWS, n)``. Returns
+    ``False`` if the mass matrix is not positive definite (cannot happen for valid arms).
+    """
+    n = q.shape[0]
+    mass_matrix_into(arm, q, mmat, work)
+    bias_into(arm, g, q, qd, out, work)
+    rhs = work[7]
+    for i in range(n):
+        rhs[i] = tau[i] - out[i]
+    return cholesky_solve_into(mmat, rhs, out, lw)

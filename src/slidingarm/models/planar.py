@@ -1,0 +1,545 @@
+"""A planar serial arm with revolute joints, in closed form (SPEC §1).
+
+Conventions: ``q[0]`` is link 1's angle from the ``+x`` axis, counter-clockwise positive;
+``q[i]`` (``i >= 1``) is link ``i+1``'s angle relative to link ``i``. The arm moves in the
+vertical x-y plane with gravity ``-g ŷ``. The equation of motion is
+
+.. math:: M(q)\\ddot q + C(q, \\dot q)\\dot q + G(q) = \\tau .
+
+The numeric work is done by the compiled kernels of :mod:`slidingarm.models._kernels`; this
+module holds the immutable, validated parameters and thin wrappers that accept one state
+``(n,)`` or a batch ``(B, n)``.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numba import njit
+from numpy.typing import ArrayLike, NDArray
+
+from slidingarm.models import _kernels as K
+
+__all__ = ["MassModel", "PlanarArm"]
+
+MassModel = Literal["point", "rod"]
+FloatArray = NDArray[np.float64]
+
+#: Inertia given to MuJoCo for axes (and point masses) that have none: MuJoCo rejects a body
+#: with a zero principal inertia. Its effect on ``M`` is below 1e-11.
+MUJOCO_MIN_INERTIA = 1e-12
+
+
+def _num(x: float) -> str:
+    """Shortest text that round-trips a float exactly (``repr`` of a Python float)."""
+    return repr(float(x))
+
+
+def _vector(name: str, value: ArrayLike, n: int | None) -> FloatArray:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from exc
+    arr = np.atleast_1d(arr)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional (one value per link), got shape {arr.shape}")
+    if n is not None and arr.shape[0] != n:
+        raise ValueError(f"{name} must have {n} values (one per link), got {arr.shape[0]}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+@njit(cache=True)
+def _batch_mass(arm: FloatArray, q: FloatArray, out: FloatArray) -> None:  # pragma: no cover
+    work = np.empty((K.WORK_ROWS, q.shape[1]))
+    for b in range(q.shape[0]):
+        K.mass_matrix_into(arm, q[b], out[b], work)
+
+
+@njit(cache=True)
+def _batch_coriolis(
+    arm: FloatArray, q: FloatArray, qd: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover
+    work = np.empty((K.WORK_ROWS, q.shape[1]))
+    for b in range(q.shape[0]):
+        K.coriolis_into(arm, q[b], qd[b], out[b], work)
+
+
+@njit(cache=True)
+def _batch_gravity(arm: FloatArray, g: float, q: FloatArray, out: FloatArray) -> None:  # pragma: no cover
+    work = np.empty((K.WORK_ROWS, q.shape[1]))
+    for b in range(q.shape[0]):
+        K.gravity_into(arm, g, q[b], out[b], work)
+
+
+@njit(cache=True)
+def _batch_bias(
+    arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover
+    work = np.empty((K.WORK_ROWS, q.shape[1]))
+    for b in range(q.shape[0]):
+        K.bias_into(arm, g, q[b], qd[b], out[b], work)
+
+
+@njit(cache=True)
+def _batch_inverse(
+    arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, qdd: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover
+    work = np.empty((K.WORK_ROWS, q.shape[1]))
+    for b in range(q.shape[0]):
+        K.inverse_dynamics_into(arm, g, q[b], qd[b], qdd[b], out[b], work)
+
+
+@njit(cache=True)
+def _batch_forward(
+    arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, tau: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover
+    n = q.shape[1]
+    work = np.empty((K.WORK_ROWS, n))
+    mmat = np.empty((n, n))
+    lw = np.empty((n, n))
+    for b in range(q.shape[0]):
+        K.forward_dynamics_into(arm, g, q[b], qd[b], tau[b], out[b], mmat, lw, work)
+
+
+class PlanarArm:
+    """An immutable planar serial arm with ``n >= 1`` revolute joints.
+
+    Parameters
+    ----------
+    masses, lengths : sequence of float, shape (n,)
+        Link masses ``m_i > 0`` (kg) and lengths ``l_i > 0`` (m).
+    com : sequence of float, optional
+        Distance ``c_i`` of each centre of mass from its joint along the link, ``0 <= c_i <= l_i``.
+        Defaults to the mass model's value.
+    inertia : sequence of float, optional
+        Rotational inertia ``I_i >= 0`` of each link about its centre of mass (kg m²).
+        Defaults to the mass model's value.
+    mass_model : {"point", "rod"}
+        ``"point"``: all mass at the distal end (``c = l``, ``I = 0``), the paper's arm;
+        ``"rod"``: uniform slender rod (``c = l/2``, ``I = m l²/12``).
+    gravity : float
+        Magnitude ``g >= 0`` of gravity, which acts along ``-y`` (m/s²).
+
+    Notes
+    -----
+    Every dynamics method accepts one state ``(n,)`` or a batch ``(B, n)`` and returns the
+    matching shape: vectors ``(n,)``/``(B, n)``, matrices ``(n, n)``/``(B, n, n)``.
+    """
+
+    __slots__ = ("_com", "_gravity", "_inertia", "_lengths", "_mass_model", "_masses", "_packed")
+
+    def __init__(
+        self,
+        masses: ArrayLike,
+        lengths: ArrayLike,
+        *,
+        com: ArrayLike | None = None,
+        inertia: ArrayLike | None = None,
+        mass_model: MassModel = "point",
+        gravity: float = 9.81,
+    ) -> None:
+        m = _vector("masses", masses, None)
+        n = m.shape[0]
+        if n < 1:
+            raise ValueError("masses must have at least one value (an arm has n >= 1 links)")
+        ln = _vector("lengths", lengths, n)
+        if np.any(m <= 0):
+            raise ValueError(f"masses must be > 0 kg, got {m.tolist()}")
+        if np.any(ln <= 0):
+            raise ValueError(f"lengths must be > 0 m, got {ln.tolist()}")
+        if mass_model not in ("point", "rod"):
+            raise ValueError(f"mass_model must be 'point' or 'rod', got {mass_model!r}")
+        if com is None:
+            c = ln.copy() if mass_model == "point" else ln / 2.0
+        else:
+            c = _vector("com", com, n)
+            if np.any(c < 0) or np.any(c > ln):
+                raise ValueError(
+                    f"com must lie on the link, 0 <= com[i] <= lengths[i]; got com={c.tolist()} "
+                    f"for lengths={ln.tolist()}"
+                )
+        if inertia is None:
+            inert = np.zeros(n) if mass_model == "point" else m * ln**2 / 12.0
+        else:
+            inert = _vector("inertia", inertia, n)
+            if np.any(inert < 0):
+                raise ValueError(f"inertia must be >= 0 kg m², got {inert.tolist()}")
+        try:
+            g = float(gravity)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"gravity must be a number, got {gravity!r}") from exc
+        if not np.isfinite(g) or g < 0:
+            raise ValueError(f"gravity must be a finite value >= 0 m/s², got {gravity!r}")
+        packed = np.ascontiguousarray(np.stack([m, ln, c, inert]))
+        for arr in (m, ln, c, inert):
+            arr.setflags(write=False)
+        object.__setattr__(self, "_masses", m)
+        object.__setattr__(self, "_lengths", ln)
+        object.__setattr__(self, "_com", c)
+        object.__setattr__(self, "_inertia", inert)
+        object.__setattr__(self, "_mass_model", mass_model)
+        object.__setattr__(self, "_gravity", g)
+        object.__setattr__(self, "_packed", packed)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"PlanarArm is immutable; cannot set {name!r}")
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def paper(cls, mass_model: MassModel = "point") -> PlanarArm:
+        """The paper's arm (Table 1): ``m = (1, 1, 1) kg``, ``l = (0.5, 1, 1) m``, ``g = 9.81``."""
+        return cls((1.0, 1.0, 1.0), (0.5, 1.0, 1.0), mass_model=mass_model, gravity=9.81)
+
+    def with_payload(self, mass: float) -> PlanarArm:
+        """Return the arm with a point ``mass`` (kg) fixed at the tip of the last link.
+
+        The last link's mass, centre of mass and centroidal inertia are combined by the
+        parallel-axis theorem: :math:`m' = m + p`, :math:`c' = (m c + p l)/m'`,
+        :math:`I' = I + m(c - c')^2 + p(l - c')^2`.
+        """
+        p = float(mass)
+        if not np.isfinite(p) or p < 0:
+            raise ValueError(f"payload mass must be a finite value >= 0 kg, got {mass!r}")
+        m, ln, c, inert = (a.copy() for a in (self._masses, self._lengths, self._com, self._inertia))
+        mn, cn, lnn = m[-1], c[-1], ln[-1]
+        m_new = mn + p
+        c_new = (mn * cn + p * lnn) / m_new
+        inert[-1] = inert[-1] + mn * (cn - c_new) ** 2 + p * (lnn - c_new) ** 2
+        m[-1] = m_new
+        c[-1] = c_new
+        return PlanarArm(m, ln, com=c, inertia=inert, gravity=self._gravity)
+
+    def scaled(self, *, mass: ArrayLike = 1.0, length: ArrayLike = 1.0) -> PlanarArm:
+        """Return the arm with masses and lengths multiplied by the given factors.
+
+        Centres of mass scale with the lengths (they stay at the same fraction of the link);
+        centroidal inertias scale as :math:`m l^2`. Factors are scalars or per link.
+        """
+        fm = np.broadcast_to(_vector("mass scale", mass, None), (self.n,)).astype(float)
+        fl = np.broadcast_to(_vector("length scale", length, None), (self.n,)).astype(float)
+        if np.any(fm <= 0) or np.any(fl <= 0):
+            raise ValueError("mass and length scale factors must be > 0")
+        return PlanarArm(
+            self._masses * fm,
+            self._lengths * fl,
+            com=self._com * fl,
+            inertia=self._inertia * fm * fl**2,
+            gravity=self._gravity,
+        )
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return int(self._masses.shape[0])
+
+    @property
+    def masses(self) -> FloatArray:
+        """Link masses ``m_i`` (kg), read-only, shape (n,)."""
+        return self._masses
+
+    @property
+    def lengths(self) -> FloatArray:
+        """Link lengths ``l_i`` (m), read-only, shape (n,)."""
+        return self._lengths
+
+    @property
+    def com(self) -> FloatArray:
+        """Centre-of-mass distances ``c_i`` from each joint (m), read-only, shape (n,)."""
+        return self._com
+
+    @property
+    def inertia(self) -> FloatArray:
+        """Centroidal rotational inertias ``I_i`` (kg m²), read-only, shape (n,)."""
+        return self._inertia
+
+    @property
+    def gravity(self) -> float:
+        """Gravity magnitude ``g`` (m/s²), acting along ``-y``."""
+        return self._gravity
+
+    @property
+    def mass_model(self) -> str:
+        """The mass model the arm was built with (``"point"`` or ``"rod"``)."""
+        return self._mass_model
+
+    @property
+    def packed(self) -> FloatArray:
+        """Parameters as the ``(4, n)`` array ``[m; l; c; I]`` the compiled kernels take (a copy)."""
+        return self._packed.copy()
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain parameters (lists and floats), enough to rebuild the arm."""
+        return {
+            "masses": self._masses.tolist(),
+            "lengths": self._lengths.tolist(),
+            "com": self._com.tolist(),
+            "inertia": self._inertia.tolist(),
+            "gravity": self._gravity,
+        }
+
+    def __repr__(self) -> str:
+        return (
+            f"PlanarArm(masses={self._masses.tolist()}, lengths={self._lengths.tolist()}, "
+            f"com={self._com.tolist()}, inertia={self._inertia.tolist()}, gravity={self._gravity})"
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PlanarArm):
+            return NotImplemented
+        return bool(np.array_equal(self._packed, other._packed) and self._gravity == other._gravity)
+
+    def __hash__(self) -> int:
+        return hash((self._packed.tobytes(), self._gravity))
+
+    # ------------------------------------------------------------------ input handling
+    def _state(self, name: str, value: ArrayLike) -> tuple[FloatArray, bool]:
+        """Return ``value`` as a C-contiguous ``(B, n)`` array and whether it was one state."""
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name} must be an array of numbers, got {value!r}") from exc
+        n = self.n
+        if arr.ndim == 1 and arr.shape[0] == n:
+            single = True
+            arr = arr.reshape(1, n)
+        elif arr.ndim == 2 and arr.shape[1] == n:
+            single = False
+        else:
+            raise ValueError(
+                f"{name} must have shape ({n},) or (B, {n}) for this {n}-joint arm, got {arr.shape}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite (no NaN or inf)")
+        return np.ascontiguousarray(arr), single
+
+    def _states(self, **named: ArrayLike) -> tuple[list[FloatArray], bool]:
+        arrays: list[FloatArray] = []
+        singles: list[bool] = []
+        for name, value in named.items():
+            arr, single = self._state(name, value)
+            arrays.append(arr)
+            singles.append(single)
+        batch = {a.shape[0] for a, s in zip(arrays, singles, strict=True) if not s}
+        if len(batch) > 1:
+            raise ValueError(
+                f"batch sizes differ: {', '.join(f'{k} {a.shape}' for k, a in zip(named, arrays, strict=True))}"
+            )
+        size = batch.pop() if batch else 1
+        arrays = [np.ascontiguousarray(np.broadcast_to(a, (size, self.n))) for a in arrays]
+        return arrays, all(singles)
+
+    @staticmethod
+    def _out(x: FloatArray, single: bool) -> FloatArray:
+        return x[0] if single else x
+
+    # ------------------------------------------------------------------ dynamics
+    def mass_matrix(self, q: ArrayLike) -> FloatArray:
+        """Joint-space inertia matrix :math:`M(q)`, shape (n, n) or (B, n, n).
+
+        .. math:: M = \\sum_i m_i J_{c,i}^T J_{c,i} + I_i \\mathbf 1_{\\le i}\\mathbf 1_{\\le i}^T
+        """
+        (qa,), single = self._states(q=q)
+        out = np.empty((qa.shape[0], self.n, self.n))
+        _batch_mass(self._packed, qa, out)
+        return self._out(out, single)
+
+    def coriolis(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """Coriolis matrix :math:`C(q, \\dot q) = \\sum_i m_i J_{c,i}^T \\dot J_{c,i}`.
+
+        :math:`\\dot M - 2C` is skew-symmetric. Shape (n, n) or (B, n, n).
+        """
+        (qa, qda), single = self._states(q=q, qd=qd)
+        out = np.empty((qa.shape[0], self.n, self.n))
+        _batch_coriolis(self._packed, qa, qda, out)
+        return self._out(out, single)
+
+    def gravity_torque(self, q: ArrayLike) -> FloatArray:
+        """Gravity torque :math:`G(q) = \\partial V/\\partial q`, shape (n,) or (B, n)."""
+        (qa,), single = self._states(q=q)
+        out = np.empty_like(qa)
+        _batch_gravity(self._packed, self._gravity, qa, out)
+        return self._out(out, single)
+
+    def bias(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """Bias torque :math:`h(q, \\dot q) = C(q, \\dot q)\\dot q + G(q)`, shape (n,) or (B, n)."""
+        (qa, qda), single = self._states(q=q, qd=qd)
+        out = np.empty_like(qa)
+        _batch_bias(self._packed, self._gravity, qa, qda, out)
+        return self._out(out, single)
+
+    def forward_dynamics(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> FloatArray:
+        """Joint acceleration :math:`\\ddot q = M(q)^{-1}(\\tau - h(q, \\dot q))`."""
+        (qa, qda, ta), single = self._states(q=q, qd=qd, tau=tau)
+        out = np.empty_like(qa)
+        _batch_forward(self._packed, self._gravity, qa, qda, ta, out)
+        return self._out(out, single)
+
+    def inverse_dynamics(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
+        """Joint torque :math:`\\tau = M(q)\\ddot q + h(q, \\dot q)` (recursive Newton-Euler)."""
+        (qa, qda, qdda), single = self._states(q=q, qd=qd, qdd=qdd)
+        out = np.empty_like(qa)
+        _batch_inverse(self._packed, self._gravity, qa, qda, qdda, out)
+        return self._out(out, single)
+
+    def kinetic_energy(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """Kinetic energy :math:`T = \\tfrac12 \\dot q^T M(q) \\dot q` (J), scalar or (B,)."""
+        (qa, qda), single = self._states(q=q, qd=qd)
+        mm = np.empty((qa.shape[0], self.n, self.n))
+        _batch_mass(self._packed, qa, mm)
+        e = 0.5 * np.einsum("bi,bij,bj->b", qda, mm, qda)
+        return e[0] if single else e
+
+    def potential_energy(self, q: ArrayLike) -> FloatArray:
+        """Potential energy :math:`V = g \\sum_i m_i y_{c,i}` (J, zero at y = 0), scalar or (B,)."""
+        (qa,), single = self._states(q=q)
+        y = self._points(qa)[1][..., 1]  # COM heights (B, n)
+        v = self._gravity * (y @ self._masses)
+        return v[0] if single else v
+
+    def total_energy(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """Total mechanical energy :math:`T + V` (J), scalar or (B,)."""
+        return self.kinetic_energy(q, qd) + self.potential_energy(q)
+
+    # ------------------------------------------------------------------ kinematics
+    def _points(self, qa: FloatArray) -> tuple[FloatArray, FloatArray]:
+        phi = np.cumsum(qa, axis=1)
+        u = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (B, n, 2)
+        ends = np.cumsum(u * self._lengths[None, :, None], axis=1)
+        joints = np.concatenate([np.zeros((qa.shape[0], 1, 2)), ends], axis=1)  # (B, n+1, 2)
+        coms = joints[:, :-1, :] + u * self._com[None, :, None]
+        return joints, coms
+
+    def joint_positions(self, q: ArrayLike) -> FloatArray:
+        """Positions of the base, every joint and the tip in the plane (m).
+
+        Shape (n + 1, 2) or (B, n + 1, 2); row 0 is the base at the origin, row n the tip.
+        """
+        (qa,), single = self._states(q=q)
+        joints, _ = self._points(qa)
+        return joints[0] if single else joints
+
+    def com_positions(self, q: ArrayLike) -> FloatArray:
+        """Positions of the links' centres of mass (m), shape (n, 2) or (B, n, 2)."""
+        (qa,), single = self._states(q=q)
+        _, coms = self._points(qa)
+        return coms[0] if single else coms
+
+    def tip_position(self, q: ArrayLike) -> FloatArray:
+        """Position of the end of the last link (m), shape (2,) or (B, 2)."""
+        return self.joint_positions(q)[..., -1, :]
+
+    # ------------------------------------------------------------------ the paper's split
+    def craig_split(self, q: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """The paper's (Craig's) split of the velocity terms for a 3-joint arm.
+
+        .. math:: C(q,\\dot q)\\dot q = B(q)[\\dot q\\dot q] + C_2(q)[\\dot q^2],\\quad
+                  [\\dot q\\dot q] = (\\dot q_1\\dot q_2, \\dot q_1\\dot q_3, \\dot q_2\\dot q_3),
+                  [\\dot q^2] = (\\dot q_1^2, \\dot q_2^2, \\dot q_3^2)
+
+        The velocity term is a quadratic form in :math:`\\dot q`, so both matrices follow exactly
+        by polarisation: column ``i`` of :math:`C_2` is :math:`c(e_i)` and the column of
+        :math:`B` for the pair ``(i, j)`` is :math:`c(e_i + e_j) - c(e_i) - c(e_j)`, where
+        :math:`c(v) = C(q, v)v`.
+
+        Returns
+        -------
+        B, C2 : ndarray, shape (3, 3) or (B, 3, 3) each
+        """
+        if self.n != 3:
+            raise ValueError(f"craig_split is defined for a 3-joint arm; this arm has {self.n} joints")
+        (qa,), single = self._states(q=q)
+        nb = qa.shape[0]
+        eye = np.eye(3)
+
+        def vel_term(v: FloatArray) -> FloatArray:
+            vb = np.ascontiguousarray(np.broadcast_to(v, (nb, 3)))
+            cm = np.empty((nb, 3, 3))
+            _batch_coriolis(self._packed, qa, vb, cm)
+            return np.einsum("bij,bj->bi", cm, vb)
+
+        sq = [vel_term(eye[i]) for i in range(3)]
+        c2 = np.stack(sq, axis=-1)
+        pairs = [(0, 1), (0, 2), (1, 2)]
+        bcols = [vel_term(eye[i] + eye[j]) - sq[i] - sq[j] for i, j in pairs]
+        bmat = np.stack(bcols, axis=-1)
+        return (bmat[0], c2[0]) if single else (bmat, c2)
+
+    # ------------------------------------------------------------------ engine models
+    def to_urdf(self, name: str = "planar_arm") -> str:
+        """URDF text of the same arm, for Pinocchio and other URDF tools.
+
+        Links lie along their local ``+x``; joints are revolute about ``+z`` (limits of ±1e6 rad, never
+        reached; a ``continuous`` joint would be a unit-complex joint in Pinocchio), with no
+        damping or friction. URDF carries no gravity: set it to ``(0, -g, 0)`` in the loader
+        (Pinocchio: ``model.gravity.linear``). A zero inertia is written as zero.
+        """
+        parts = [f'<?xml version="1.0"?>\n<robot name="{name}">', '  <link name="base"/>']
+        parent = "base"
+        offset = 0.0
+        for i in range(self.n):
+            link = f"link{i + 1}"
+            parts.append(
+                f'  <joint name="joint{i + 1}" type="revolute">\n'
+                f'    <parent link="{parent}"/>\n    <child link="{link}"/>\n'
+                f'    <origin xyz="{_num(offset)} 0 0" rpy="0 0 0"/>\n    <axis xyz="0 0 1"/>\n'
+                f'    <limit lower="-1e6" upper="1e6" effort="1e6" velocity="1e6"/>\n'
+                f'    <dynamics damping="0" friction="0"/>\n  </joint>'
+            )
+            inert = self._inertia[i]
+            parts.append(
+                f'  <link name="{link}">\n    <inertial>\n'
+                f'      <origin xyz="{_num(self._com[i])} 0 0" rpy="0 0 0"/>\n'
+                f'      <mass value="{_num(self._masses[i])}"/>\n'
+                f'      <inertia ixx="0" ixy="0" ixz="0" iyy="{_num(inert)}" iyz="0" izz="{_num(inert)}"/>\n'
+                f"    </inertial>\n  </link>"
+            )
+            parent = link
+            offset = float(self._lengths[i])
+        parts.append("</robot>\n")
+        return "\n".join(parts)
+
+    def to_mjcf(self, name: str = "planar_arm", timestep: float = 5e-4) -> str:
+        """MJCF text of the same arm, for MuJoCo.
+
+        Gravity ``(0, -g, 0)``, hinge joints about ``+z`` with no damping, armature or limits,
+        RK4 integrator, contacts disabled. MuJoCo needs strictly positive principal inertias, so
+        zero inertias are written as :data:`MUJOCO_MIN_INERTIA` (changes ``M`` by < 1e-11).
+        """
+        eps = MUJOCO_MIN_INERTIA
+        lines = [
+            f'<mujoco model="{name}">',
+            '  <compiler angle="radian" inertiafromgeom="false"/>',
+            f'  <option gravity="0 {_num(-self._gravity)} 0" timestep="{_num(timestep)}" integrator="RK4">',
+            '    <flag contact="disable"/>',
+            "  </option>",
+            "  <worldbody>",
+        ]
+        indent = "    "
+        offset = 0.0
+        for i in range(self.n):
+            inert = max(float(self._inertia[i]), eps)
+            lines.append(f'{indent}<body name="link{i + 1}" pos="{_num(offset)} 0 0">')
+            lines.append(
+                f'{indent}  <joint name="joint{i + 1}" type="hinge" axis="0 0 1" '
+                f'damping="0" armature="0" frictionloss="0" limited="false"/>'
+            )
+            lines.append(
+                f'{indent}  <inertial pos="{_num(self._com[i])} 0 0" mass="{_num(self._masses[i])}" '
+                f'diaginertia="{_num(eps)} {_num(inert)} {_num(inert)}"/>'
+            )
+            lines.append(
+                f'{indent}  <geom type="capsule" fromto="0 0 0 {_num(self._lengths[i])} 0 0" '
+                f'size="0.02" contype="0" conaffinity="0" mass="0"/>'
+            )
+            indent += "  "
+            offset = float(self._lengths[i])
+        for _ in range(self.n):
+            indent = indent[:-2]
+            lines.append(f"{indent}</body>")
+        lines += ["  </worldbody>", "</mujoco>", ""]
+        return "\n".join(lines)
+
