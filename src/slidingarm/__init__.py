@@ -1,6 +1,76 @@
-"""slidingarm: sliding-mode control of robot arms, simulated fast and checked against theory."""
+"""slidingarm: sliding-mode control of robot arms, simulated fast and checked against theory.
+
+The public API is exactly what this module re-exports.
+"""
 
 from slidingarm._version import __version__
+from slidingarm.control import (
+    FTSMC,
+    NTSMC,
+    PDSMC,
+    TSMC,
+    SlidingModeController,
+    ftsm_convergence_time,
+    tsm_convergence_time,
+)
+from slidingarm.disturbances import ConstantTorque, ModelMismatch, RandomTorque, SinusoidalTorque
 from slidingarm.models import PlanarArm
+from slidingarm.references import (
+    PAPER_DT,
+    PAPER_Q0,
+    PAPER_QD0,
+    PAPER_T_FINAL,
+    CallableReference,
+    PaperReference,
+    QuinticReference,
+    Reference,
+    TableReference,
+)
+from slidingarm.results import BatchResult, SimResult
+from slidingarm.sensors import (
+    BackwardDifference,
+    DirtyDerivative,
+    GaussianNoise,
+    LevantDifferentiator,
+    Sensor,
+    SensorFault,
+    TrueVelocity,
+)
+from slidingarm.simulate import SimulationError, simulate, simulate_batch
 
-__all__ = ["PlanarArm", "__version__"]
+__all__ = [
+    "FTSMC",
+    "NTSMC",
+    "PAPER_DT",
+    "PAPER_Q0",
+    "PAPER_QD0",
+    "PAPER_T_FINAL",
+    "PDSMC",
+    "TSMC",
+    "BackwardDifference",
+    "BatchResult",
+    "CallableReference",
+    "ConstantTorque",
+    "DirtyDerivative",
+    "GaussianNoise",
+    "LevantDifferentiator",
+    "ModelMismatch",
+    "PaperReference",
+    "PlanarArm",
+    "QuinticReference",
+    "RandomTorque",
+    "Reference",
+    "Sensor",
+    "SensorFault",
+    "SimResult",
+    "SimulationError",
+    "SinusoidalTorque",
+    "SlidingModeController",
+    "TableReference",
+    "TrueVelocity",
+    "__version__",
+    "ftsm_convergence_time",
+    "simulate",
+    "simulate_batch",
+    "tsm_convergence_time",
+]

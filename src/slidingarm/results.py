@@ -96,7 +96,9 @@ class SimResult:
         for name in SIGNALS:
             arr = np.asarray(getattr(self, name), dtype=np.float64)
             if arr.ndim != 2 or arr.shape[0] != t.shape[0]:
-                raise ValueError(f"{name} must have shape (T, n) with T={t.shape[0]}, got {arr.shape}")
+                raise ValueError(
+                    f"{name} must have shape (T, n) with T={t.shape[0]}, got {arr.shape}"
+                )
             if shape is not None and arr.shape != shape:
                 raise ValueError(f"{name} has shape {arr.shape}, other signals {shape}")
             shape = arr.shape
@@ -154,7 +156,10 @@ class SimResult:
         return xr.Dataset(
             data_vars,
             coords={"time": ("time", self.t, {"units": "s"}), "joint": joints},
-            attrs={"params": json.dumps(self.params), "seed": -1 if self.seed is None else self.seed},
+            attrs={
+                "params": json.dumps(self.params),
+                "seed": -1 if self.seed is None else self.seed,
+            },
         )
 
     def save(self, path: str | os.PathLike[str]) -> Path:

@@ -43,6 +43,7 @@ __all__ = [
     "forward_dynamics_into",
     "gravity_into",
     "inverse_dynamics_into",
+    "mass_and_bias_into",
     "mass_matrix_into",
 ]
 
@@ -50,28 +51,34 @@ __all__ = [
 WORK_ROWS = 8
 
 _CACHE = True
+_INLINE = "always"
 
 
-@njit(cache=_CACHE, fastmath=False, nogil=True)
-def _angles(q: np.ndarray, cphi: np.ndarray, sphi: np.ndarray) -> None:
-    """Cosine and sine of the absolute link angles ``phi_i = q_0 + ... + q_i``."""
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def _angles(q: np.ndarray, work: np.ndarray) -> None:
+    """Cosine (row 0) and sine (row 1) of the absolute angles ``phi_i = q_0 + ... + q_i``."""
     phi = 0.0
     for i in range(q.shape[0]):
         phi += q[i]
-        cphi[i] = math.cos(phi)
-        sphi[i] = math.sin(phi)
+        work[0, i] = math.cos(phi)
+        work[1, i] = math.sin(phi)
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy")
 def mass_matrix_into(arm: np.ndarray, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
     """Fill ``out`` (n, n) with the joint-space inertia matrix :math:`M(q)`.
 
     ``work`` is a ``(WORK_ROWS, n)`` scratch array.
     """
-    n = q.shape[0]
+    _angles(q, work)
+    _mass_from_angles(arm, q.shape[0], out, work)
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def _mass_from_angles(arm: np.ndarray, n: int, out: np.ndarray, work: np.ndarray) -> None:
+    """:math:`M` from the angles already in ``work`` rows 0-1 (uses rows 2-3)."""
     cphi = work[0]
     sphi = work[1]
-    _angles(q, cphi, sphi)
     for a in range(n):
         for b in range(n):
             out[a, b] = 0.0
@@ -97,7 +104,7 @@ def mass_matrix_into(arm: np.ndarray, q: np.ndarray, out: np.ndarray, work: np.n
             out[a, b] = out[b, a]
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy")
 def coriolis_into(
     arm: np.ndarray, q: np.ndarray, qd: np.ndarray, out: np.ndarray, work: np.ndarray
 ) -> None:
@@ -106,9 +113,9 @@ def coriolis_into(
     With this choice :math:`\\dot M - 2C` is skew-symmetric.
     """
     n = q.shape[0]
+    _angles(q, work)
     cphi = work[0]
     sphi = work[1]
-    _angles(q, cphi, sphi)
     omega = work[4]
     w = 0.0
     for i in range(n):
@@ -144,7 +151,7 @@ def coriolis_into(
                 out[a, b] += m * (work[2, a] * work[5, b] + work[3, a] * work[6, b])
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy")
 def gravity_into(arm: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
     """Fill ``out`` (n,) with the gravity torque :math:`G(q) = \\partial V / \\partial q`.
 
@@ -152,9 +159,8 @@ def gravity_into(arm: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work
               + c_i \\cos\\phi_i\\Big)
     """
     n = q.shape[0]
+    _angles(q, work)
     cphi = work[0]
-    sphi = work[1]
-    _angles(q, cphi, sphi)
     # Backward recursion: mass outboard of joint j and its first moment about joint j.
     mass_out = 0.0  # total mass of links j+1..n-1
     moment = 0.0  # sum over links > j of m_i * x-offset from joint j+1
@@ -167,7 +173,7 @@ def gravity_into(arm: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work
         out[j] = g * moment
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy")
 def bias_into(
     arm: np.ndarray, g: float, q: np.ndarray, qd: np.ndarray, out: np.ndarray, work: np.ndarray
 ) -> None:
@@ -176,10 +182,11 @@ def bias_into(
     Computed by the planar recursive Newton-Euler algorithm with zero joint acceleration and
     the base accelerated upwards by ``g`` (the usual way of folding gravity in), O(n).
     """
-    _rnea(arm, g, q, qd, qd, 0.0, out, work)
+    _angles(q, work)
+    _rnea_from_angles(arm, g, qd, qd, 0.0, out, work)
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy")
 def inverse_dynamics_into(
     arm: np.ndarray,
     g: float,
@@ -190,25 +197,25 @@ def inverse_dynamics_into(
     work: np.ndarray,
 ) -> None:
     """Fill ``out`` (n,) with :math:`\\tau = M(q)\\ddot q + C(q,\\dot q)\\dot q + G(q)` (RNEA)."""
-    _rnea(arm, g, q, qd, qdd, 1.0, out, work)
+    _angles(q, work)
+    _rnea_from_angles(arm, g, qd, qdd, 1.0, out, work)
 
 
-@njit(cache=_CACHE, nogil=True)
-def _rnea(
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def _rnea_from_angles(
     arm: np.ndarray,
     g: float,
-    q: np.ndarray,
     qd: np.ndarray,
     qdd: np.ndarray,
     qdd_scale: float,
     out: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """Planar recursive Newton-Euler; ``qdd`` is multiplied by ``qdd_scale`` (0 drops it)."""
-    n = q.shape[0]
+    """Planar recursive Newton-Euler from the angles in ``work`` rows 0-1 (uses rows 2-4);
+    ``qdd`` is multiplied by ``qdd_scale`` (0 drops it)."""
+    n = qd.shape[0]
     cphi = work[0]
     sphi = work[1]
-    _angles(q, cphi, sphi)
     # forward pass: absolute rates, accelerations, COM accelerations (stored in rows 2..5)
     w = 0.0
     wd = 0.0
@@ -247,11 +254,12 @@ def _rnea(
         out[i] = mom
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
 def cholesky_solve_into(a: np.ndarray, b: np.ndarray, out: np.ndarray, lw: np.ndarray) -> bool:
     """Solve ``a x = b`` for symmetric positive definite ``a`` (n, n) by Cholesky.
 
-    ``lw`` is an (n, n) scratch array for the factor. Returns ``False`` if ``a`` is not
+    ``lw`` is an (n, n) scratch array for the factor; ``out`` may be ``b`` (solved in place).
+    Returns ``False`` if ``a`` is not
     positive definite (then ``out`` is left undefined).
     """
     n = b.shape[0]
@@ -279,7 +287,7 @@ def cholesky_solve_into(a: np.ndarray, b: np.ndarray, out: np.ndarray, lw: np.nd
     return True
 
 
-@njit(cache=_CACHE, nogil=True)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
 def forward_dynamics_into(
     arm: np.ndarray,
     g: float,
@@ -297,9 +305,19 @@ def forward_dynamics_into(
     ``False`` if the mass matrix is not positive definite (cannot happen for valid arms).
     """
     n = q.shape[0]
-    mass_matrix_into(arm, q, mmat, work)
-    bias_into(arm, g, q, qd, out, work)
-    rhs = work[7]
+    _angles(q, work)
+    _mass_from_angles(arm, n, mmat, work)
+    _rnea_from_angles(arm, g, qd, qd, 0.0, out, work)
     for i in range(n):
-        rhs[i] = tau[i] - out[i]
-    return cholesky_solve_into(mmat, rhs, out, lw)
+        out[i] = tau[i] - out[i]
+    return cholesky_solve_into(mmat, out, out, lw)
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def mass_and_bias_into(
+    arm: np.ndarray, g: float, q: np.ndarray, qd: np.ndarray, mmat: np.ndarray, h: np.ndarray, work: np.ndarray
+) -> None:
+    """Fill ``mmat`` with :math:`M(q)` and ``h`` with :math:`h(q, \\dot q)`, sharing the trigonometry."""
+    _angles(q, work)
+    _mass_from_angles(arm, q.shape[0], mmat, work)
+    _rnea_from_angles(arm, g, qd, qd, 0.0, h, work)

@@ -95,13 +95,16 @@ def _batch_inverse(
 @njit(cache=True)
 def _batch_forward(
     arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, tau: FloatArray, out: FloatArray
-) -> None:  # pragma: no cover
+) -> int:  # pragma: no cover
+    """Fill ``out``; return the first state index whose M(q) is not positive definite, or -1."""
     n = q.shape[1]
     work = np.empty((K.WORK_ROWS, n))
     mmat = np.empty((n, n))
     lw = np.empty((n, n))
     for b in range(q.shape[0]):
-        K.forward_dynamics_into(arm, g, q[b], qd[b], tau[b], out[b], mmat, lw, work)
+        if not K.forward_dynamics_into(arm, g, q[b], qd[b], tau[b], out[b], mmat, lw, work):
+            return b
+    return -1
 
 
 class PlanarArm:
@@ -130,6 +133,13 @@ class PlanarArm:
     """
 
     __slots__ = ("_com", "_gravity", "_inertia", "_lengths", "_mass_model", "_masses", "_packed")
+    _masses: FloatArray
+    _lengths: FloatArray
+    _com: FloatArray
+    _inertia: FloatArray
+    _mass_model: str
+    _gravity: float
+    _packed: FloatArray
 
     def __init__(
         self,
@@ -173,6 +183,13 @@ class PlanarArm:
             raise ValueError(f"gravity must be a number, got {gravity!r}") from exc
         if not np.isfinite(g) or g < 0:
             raise ValueError(f"gravity must be a finite value >= 0 m/s², got {gravity!r}")
+        idle = np.flatnonzero((c == 0) & (inert == 0))
+        if idle.size:
+            raise ValueError(
+                f"link {int(idle[0]) + 1} has com = 0 and inertia = 0: every link needs com > 0 or "
+                "inertia > 0, or M(q) can be singular (a mass on a joint axis belongs at the "
+                "previous link's tip)"
+            )
         packed = np.ascontiguousarray(np.stack([m, ln, c, inert]))
         for arr in (m, ln, c, inert):
             arr.setflags(write=False)
@@ -375,7 +392,11 @@ class PlanarArm:
         """Joint acceleration :math:`\\ddot q = M(q)^{-1}(\\tau - h(q, \\dot q))`."""
         (qa, qda, ta), single = self._states(q=q, qd=qd, tau=tau)
         out = np.empty_like(qa)
-        _batch_forward(self._packed, self._gravity, qa, qda, ta, out)
+        bad = _batch_forward(self._packed, self._gravity, qa, qda, ta, out)
+        if bad >= 0:
+            raise ValueError(
+                f"M(q) is not positive definite at q = {qa[bad].tolist()}; the arm is degenerate"
+            )
         return self._out(out, single)
 
     def inverse_dynamics(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:

@@ -1,0 +1,241 @@
+"""Compiled sliding-mode control law (SPEC §3), shared by the Python call path and the simulator.
+
+A controller is encoded as an integer code vector ``ci`` and a float parameter table ``cf`` of
+shape ``(NCF, n)`` (one column per joint), plus the nominal arm ``(arm, g)`` the law uses. The
+codes and row indices are defined here, once.
+
+The law, per joint, with :math:`e = q - q_d`, :math:`\\dot e = \\dot q - \\dot q_d`:
+
+.. math::
+
+    a = \\ddot q_d - \\nu(e, \\dot e) - r(s), \\qquad \\tau = \\hat M(q)\\,a + \\hat h(q, \\dot q)
+
+where :math:`s` and :math:`\\nu` come from the surface and :math:`r` from the reaching law.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from slidingarm.models import _kernels as MK
+
+# --- integer codes: ci[CI_*] ------------------------------------------------------------------
+CI_SURFACE = 0
+CI_SWITCHING = 1
+CI_LAW = 2
+CI_REACHING = 3
+NCI = 4
+
+SURFACE_FAST_TERMINAL = 0  # s = ed + alpha e + beta sig(e)^gamma (PD: beta = 0; TSM: alpha = 0)
+SURFACE_NONSINGULAR = 1  # s = e + (1/beta) sig(ed)^gamma, 1 < gamma < 2 (Feng et al. 2002)
+
+SWITCH_SIGN = 0
+SWITCH_TANH = 1
+SWITCH_SAT = 2
+
+LAW_MODEL = 0
+LAW_PAPER = 1
+
+REACH_CLASSIC = 0  # r = k phi(s)
+REACH_SUPER_TWISTING = 1  # r = k sig(s)^(1/2) + w,  w' = k2 sign(s)
+
+# --- float rows: cf[CF_*, j] ------------------------------------------------------------------
+CF_ALPHA = 0
+CF_BETA = 1
+CF_GAMMA = 2
+CF_K = 3
+CF_WIDTH = 4
+CF_K2 = 5
+CF_EPS_E = 6
+NCF = 7
+
+#: Rows of the control workspace ``work`` (shape ``(CONTROL_WORK_ROWS, n)``).
+CONTROL_WORK_ROWS = MK.WORK_ROWS + 3
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _sign(x: float) -> float:
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def switch(code: int, s: float, width: float) -> float:
+    """Switching function :math:`\\varphi`: ``sign(s)``, ``tanh(s/ε)`` or ``sat(s/ε)``."""
+    if code == SWITCH_SIGN:
+        return _sign(s)
+    if code == SWITCH_TANH:
+        return math.tanh(s / width)
+    x = s / width
+    if x > 1.0:
+        return 1.0
+    if x < -1.0:
+        return -1.0
+    return x
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def surface_into(
+    ci: np.ndarray,
+    cf: np.ndarray,
+    e: np.ndarray,
+    ed: np.ndarray,
+    s_out: np.ndarray,
+    nu_out: np.ndarray,
+) -> None:
+    """Sliding variable ``s`` and the derivative term ``nu`` of the surface, per joint.
+
+    Fast-terminal family (PDSMC, TSMC, FTSMC):
+
+    .. math:: s = \\dot e + \\alpha e + \\beta\\,\\mathrm{sig}(e)^\\gamma,\\qquad
+              \\nu = (\\alpha + \\beta\\gamma\\max(|e|, \\varepsilon_e)^{\\gamma-1})\\,\\dot e
+
+    (the guard :math:`\\varepsilon_e` keeps the TSM term finite at ``e = 0``). Nonsingular
+    (NTSMC, with :math:`1 < \\gamma = p/q < 2`):
+
+    .. math:: s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^\\gamma,\\qquad
+              \\nu = \\frac{\\beta}{\\gamma}\\,\\mathrm{sig}(\\dot e)^{2-\\gamma}
+    """
+    n = e.shape[0]
+    if ci[CI_SURFACE] == SURFACE_FAST_TERMINAL:
+        for j in range(n):
+            alpha = cf[CF_ALPHA, j]
+            beta = cf[CF_BETA, j]
+            ej = e[j]
+            s = ed[j] + alpha * ej
+            gain = alpha
+            if beta != 0.0:
+                gamma = cf[CF_GAMMA, j]
+                ae = abs(ej)
+                eps_e = cf[CF_EPS_E, j]
+                if ae >= eps_e:
+                    pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
+                    s += beta * pw * _sign(ej)
+                    gain += beta * gamma * pw / ae
+                else:
+                    s += beta * (ae**gamma) * _sign(ej)
+                    gain += beta * gamma * eps_e ** (gamma - 1.0)
+            s_out[j] = s
+            nu_out[j] = gain * ed[j]
+    else:
+        for j in range(n):
+            beta = cf[CF_BETA, j]
+            gamma = cf[CF_GAMMA, j]
+            edj = ed[j]
+            aed = abs(edj)
+            sg = _sign(edj)
+            s_out[j] = e[j] + (aed**gamma) * sg / beta
+            nu_out[j] = beta / gamma * (aed ** (2.0 - gamma)) * sg
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def control_into(
+    ci: np.ndarray,
+    cf: np.ndarray,
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    mmat: np.ndarray,
+    lw: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Compute the control torque ``tau_out`` and sliding variable ``s_out`` (both (n,)).
+
+    ``q, qd`` are what the controller measures; ``st_state`` (n,) is the super-twisting
+    integral :math:`w`, advanced by ``dt`` after use (ignored by the classic reaching law).
+    ``mmat``, ``lw`` are (n, n) scratch arrays, ``work`` is ``(CONTROL_WORK_ROWS, n)``.
+
+    ``law = model`` (SPEC §3): :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q,\\dot q)`.
+
+    ``law = paper`` (the paper's eqs. 19-22, kept to measure its cost): with
+    :math:`f = -\\hat M^{-1}\\hat h` and :math:`g_i = [\\hat M^{-1}]_{ii}`,
+    :math:`\\tau_i = (-f_i - \\nu_i)/g_i - r_i` (no :math:`\\ddot q_d`, a row of
+    :math:`M^{-1}` used as a scalar).
+    """
+    n = q.shape[0]
+    mk_work = work[: MK.WORK_ROWS]
+    e = work[MK.WORK_ROWS]
+    ed = work[MK.WORK_ROWS + 1]
+    nu = work[MK.WORK_ROWS + 2]
+    for j in range(n):
+        e[j] = q[j] - q_ref[j]
+        ed[j] = qd[j] - qd_ref[j]
+    surface_into(ci, cf, e, ed, s_out, nu)
+    # reaching term r, stored in e (no longer needed)
+    r = e
+    swcode = ci[CI_SWITCHING]
+    if ci[CI_REACHING] == REACH_CLASSIC:
+        for j in range(n):
+            r[j] = cf[CF_K, j] * switch(swcode, s_out[j], cf[CF_WIDTH, j])
+    else:
+        for j in range(n):
+            sj = s_out[j]
+            r[j] = cf[CF_K, j] * math.sqrt(abs(sj)) * _sign(sj) + st_state[j]
+            st_state[j] += dt * cf[CF_K2, j] * switch(swcode, sj, cf[CF_WIDTH, j])
+    if ci[CI_LAW] == LAW_MODEL:
+        MK.mass_and_bias_into(arm, g, q, qd, mmat, tau_out, mk_work)
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += mmat[i, j] * (qdd_ref[j] - nu[j] - r[j])
+            tau_out[i] += acc
+    else:
+        # h into ed (velocity error no longer needed), f = -M^{-1} h into tau_out
+        h = ed
+        MK.mass_and_bias_into(arm, g, q, qd, mmat, h, mk_work)
+        rhs = mk_work[7]
+        for j in range(n):
+            rhs[j] = -h[j]
+        col = mk_work[6]
+        MK.cholesky_solve_into(mmat, rhs, col, lw)
+        f_saved = mk_work[5]
+        for j in range(n):
+            f_saved[j] = col[j]
+        for i in range(n):
+            # g_i = [M^{-1}]_ii: solve M x = e_i, take x_i
+            for j in range(n):
+                rhs[j] = 0.0
+            rhs[i] = 1.0
+            MK.cholesky_solve_into(mmat, rhs, col, lw)
+            tau_out[i] = (-f_saved[i] - nu[i]) / col[i] - r[i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def control_once(
+    ci: np.ndarray,
+    cf: np.ndarray,
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+    scratch: np.ndarray,
+) -> None:
+    """One call from Python: ``out`` is (2, n) ``[tau; s]``; ``scratch`` is
+    ``(CONTROL_WORK_ROWS + 2 n, n)`` holding the work rows and the two (n, n) matrices."""
+    n = q.shape[0]
+    work = scratch[:CONTROL_WORK_ROWS]
+    mmat = scratch[CONTROL_WORK_ROWS : CONTROL_WORK_ROWS + n]
+    lw = scratch[CONTROL_WORK_ROWS + n : CONTROL_WORK_ROWS + 2 * n]
+    control_into(
+        ci, cf, arm, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, out[0], out[1], mmat, lw, work
+    )

@@ -1,0 +1,465 @@
+"""Model-based sliding-mode controllers for an n-joint arm (SPEC §3).
+
+A controller is a sliding surface, a reaching law and a nominal arm model:
+
+.. math::
+
+    \\tau = \\hat M(q)\\,[\\ddot q_d - \\nu(e, \\dot e) - r(s)] + \\hat h(q, \\dot q)
+
+with the classic reaching term :math:`r = K\\varphi(s)`, :math:`\\varphi \\in` {sign, tanh(s/ε),
+sat(s/ε)}, or the super-twisting one :math:`r = k_1\\mathrm{sig}(s)^{1/2} + w`,
+:math:`\\dot w = k_2\\,\\mathrm{sign}(s)` (Levant 1993). With an exact model the closed loop obeys
+:math:`\\dot s = -r(s)` joint by joint.
+
+``law="paper"`` replaces the law by the paper's eqs. 19-22 (see
+:func:`slidingarm.control._kernels.control_into`); it exists to measure that erratum.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from slidingarm.control import _kernels as CK
+from slidingarm.control.surfaces import (
+    DEFAULT_EPS_E,
+    FastTerminal,
+    LinearSurface,
+    NonsingularTerminal,
+    Surface,
+    TerminalSurface,
+    gain,
+)
+from slidingarm.models.planar import PlanarArm
+
+__all__ = [
+    "FTSMC",
+    "NTSMC",
+    "PDSMC",
+    "SWITCHING_LAWS",
+    "TSMC",
+    "Law",
+    "Reaching",
+    "SlidingModeController",
+    "Switching",
+]
+
+FloatArray = NDArray[np.float64]
+Switching = Literal["sign", "tanh", "sat"]
+Law = Literal["model", "paper"]
+Reaching = Literal["classic", "super-twisting"]
+
+#: Switching functions by name, with their compiled codes.
+SWITCHING_LAWS: dict[str, int] = {
+    "sign": CK.SWITCH_SIGN,
+    "tanh": CK.SWITCH_TANH,
+    "sat": CK.SWITCH_SAT,
+}
+_LAWS: dict[str, int] = {"model": CK.LAW_MODEL, "paper": CK.LAW_PAPER}
+_REACHING: dict[str, int] = {"classic": CK.REACH_CLASSIC, "super-twisting": CK.REACH_SUPER_TWISTING}
+
+#: Boundary-layer width used by ``tanh``/``sat`` when none is given (rad/s, the unit of s).
+DEFAULT_WIDTH = 0.05
+
+
+class SlidingModeController:
+    """A sliding-mode controller: surface + reaching law + nominal model.
+
+    Prefer the named controllers :class:`PDSMC`, :class:`TSMC`, :class:`FTSMC`, :class:`NTSMC`.
+
+    Parameters
+    ----------
+    model : PlanarArm
+        The controller's nominal arm (:math:`\\hat M, \\hat h`); pass an arm different from the
+        plant's to model uncertainty.
+    surface : Surface
+        The sliding surface.
+    k : float or array_like (n,)
+        Reaching gain :math:`K = \\mathrm{diag}(k_i) > 0` (for super-twisting: :math:`k_1`).
+    switching : {"sign", "tanh", "sat"}
+        Switching function :math:`\\varphi` (for super-twisting: the one in the integral).
+    width : float or array_like, optional
+        Boundary-layer width :math:`\\varepsilon > 0` of ``tanh``/``sat``
+        (default :data:`DEFAULT_WIDTH`); not accepted with ``sign``.
+    law : {"model", "paper"}
+        The correct model-based law (default) or the paper's literal one.
+    reaching : {"classic", "super-twisting"}
+        :math:`r = K\\varphi(s)` or the super-twisting algorithm, which needs ``k2``.
+    k2 : float or array_like, optional
+        Super-twisting integral gain :math:`k_2 > 0`.
+    """
+
+    name: str = "smc"
+
+    def __init__(
+        self,
+        model: PlanarArm,
+        surface: Surface,
+        *,
+        k: ArrayLike,
+        switching: Switching = "sign",
+        width: ArrayLike | None = None,
+        law: Law = "model",
+        reaching: Reaching = "classic",
+        k2: ArrayLike | None = None,
+    ) -> None:
+        if not isinstance(model, PlanarArm):
+            raise ValueError(
+                f"model must be a PlanarArm (the controller's nominal arm), got {type(model).__name__}"
+            )
+        if switching not in SWITCHING_LAWS:
+            raise ValueError(
+                f"switching must be one of {sorted(SWITCHING_LAWS)}, got {switching!r}"
+            )
+        if law not in _LAWS:
+            raise ValueError(f"law must be 'model' or 'paper', got {law!r}")
+        if reaching not in _REACHING:
+            raise ValueError(f"reaching must be 'classic' or 'super-twisting', got {reaching!r}")
+        n = model.n
+        kk = gain("k", k)
+        if switching == "sign":
+            if width is not None:
+                raise ValueError(
+                    "width (the boundary layer) applies to 'tanh' and 'sat' only, not 'sign'"
+                )
+            ww = np.array(1.0)
+        else:
+            ww = gain("width", DEFAULT_WIDTH if width is None else width)
+        if reaching == "super-twisting":
+            if k2 is None:
+                raise ValueError(
+                    "k2 (the super-twisting integral gain) is required with reaching='super-twisting'"
+                )
+            kk2 = gain("k2", k2)
+        else:
+            if k2 is not None:
+                raise ValueError("k2 applies to reaching='super-twisting' only")
+            kk2 = np.array(0.0)
+        cf = np.zeros((CK.NCF, n))
+        rows = dict(surface.rows())
+        rows[CK.CF_K] = kk
+        rows[CK.CF_WIDTH] = ww
+        rows[CK.CF_K2] = kk2
+        rows.setdefault(CK.CF_EPS_E, np.array(DEFAULT_EPS_E))
+        names = {
+            CK.CF_ALPHA: "alpha",
+            CK.CF_BETA: "beta",
+            CK.CF_GAMMA: "gamma",
+            CK.CF_K: "k",
+            CK.CF_WIDTH: "width",
+            CK.CF_K2: "k2",
+            CK.CF_EPS_E: "eps_e",
+        }
+        for row, value in rows.items():
+            if value.ndim == 1 and value.shape[0] != n:
+                raise ValueError(
+                    f"{names[row]} has {value.shape[0]} values but the model has {n} joints "
+                    "(give a scalar or one value per joint)"
+                )
+            cf[row] = value
+        ci = np.zeros(CK.NCI, dtype=np.int64)
+        ci[CK.CI_SURFACE] = surface.code
+        ci[CK.CI_SWITCHING] = SWITCHING_LAWS[switching]
+        ci[CK.CI_LAW] = _LAWS[law]
+        ci[CK.CI_REACHING] = _REACHING[reaching]
+        self._model = model
+        self._surface = surface
+        self._switching: str = switching
+        self._law: str = law
+        self._reaching: str = reaching
+        self._ci = ci
+        self._cf = cf
+        self._k = kk
+        self._width = None if switching == "sign" else ww
+        self._k2 = None if reaching == "classic" else kk2
+        # Python call path: preallocated scratch and the super-twisting integral
+        self._scratch = np.empty((CK.CONTROL_WORK_ROWS + 2 * n, n))
+        self._state = np.zeros(n)
+        self._arm = model.packed
+        self._g = model.gravity
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def model(self) -> PlanarArm:
+        """The nominal arm the law uses."""
+        return self._model
+
+    @property
+    def surface(self) -> Surface:
+        """The sliding surface."""
+        return self._surface
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return self._model.n
+
+    @property
+    def switching(self) -> str:
+        """Name of the switching function."""
+        return self._switching
+
+    @property
+    def law(self) -> str:
+        """``"model"`` or ``"paper"``."""
+        return self._law
+
+    @property
+    def reaching(self) -> str:
+        """``"classic"`` or ``"super-twisting"``."""
+        return self._reaching
+
+    @property
+    def k(self) -> FloatArray:
+        """Per-joint reaching gains, shape (n,)."""
+        return self._cf[CK.CF_K].copy()
+
+    @property
+    def stateful(self) -> bool:
+        """Whether the law keeps state between calls (super-twisting integral)."""
+        return self._reaching == "super-twisting"
+
+    def compiled(self) -> tuple[NDArray[np.int64], FloatArray, FloatArray, float]:
+        """``(ci, cf, arm, g)``: the arrays the compiled loop takes (copies)."""
+        return self._ci.copy(), self._cf.copy(), self._arm.copy(), self._g
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able parameters, including the nominal model."""
+        d: dict[str, Any] = {"controller": self.name, **self._surface.to_dict()}
+        d["k"] = _tolist(self._k)
+        d["switching"] = self._switching
+        if self._width is not None:
+            d["width"] = _tolist(self._width)
+        d["law"] = self._law
+        d["reaching"] = self._reaching
+        if self._k2 is not None:
+            d["k2"] = _tolist(self._k2)
+        d["model"] = self._model.to_dict()
+        return d
+
+    def __repr__(self) -> str:
+        fields = ", ".join(
+            f"{k}={v!r}" for k, v in self.to_dict().items() if k not in ("model", "controller")
+        )
+        return f"{type(self).__name__}({fields})"
+
+    # ------------------------------------------------------------------ evaluation
+    def reset(self) -> None:
+        """Clear the controller's state (the super-twisting integral)."""
+        self._state[:] = 0.0
+
+    def __call__(
+        self,
+        q: FloatArray,
+        qd: FloatArray,
+        q_ref: FloatArray,
+        qd_ref: FloatArray,
+        qdd_ref: FloatArray,
+        dt: float = 0.0,
+    ) -> FloatArray:
+        """Control torque for one measured state, shape (n,).
+
+        The fast path: arguments must be float64 arrays of shape (n,) (no checks beyond what
+        the compiled kernel needs). A stateful law advances its integral by ``dt`` (s).
+        Use :meth:`evaluate` for validated inputs that also returns ``s``.
+        """
+        out = np.empty((2, q.shape[0]))
+        CK.control_once(
+            self._ci,
+            self._cf,
+            self._arm,
+            self._g,
+            q,
+            qd,
+            q_ref,
+            qd_ref,
+            qdd_ref,
+            self._state,
+            dt,
+            out,
+            self._scratch,
+        )
+        return out[0]
+
+    def evaluate(
+        self,
+        q: ArrayLike,
+        qd: ArrayLike,
+        q_ref: ArrayLike,
+        qd_ref: ArrayLike,
+        qdd_ref: ArrayLike,
+        *,
+        dt: float | None = None,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Validated evaluation: returns ``(tau, s)``, each shape (n,).
+
+        ``dt`` (s) is required for a stateful law (it advances the super-twisting integral).
+        """
+        n = self.n
+        arrays = []
+        for name, v in (
+            ("q", q),
+            ("qd", qd),
+            ("q_ref", q_ref),
+            ("qd_ref", qd_ref),
+            ("qdd_ref", qdd_ref),
+        ):
+            a = np.ascontiguousarray(np.asarray(v, dtype=np.float64))
+            if a.shape != (n,):
+                raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"{name} must be finite (no NaN or inf)")
+            arrays.append(a)
+        if self.stateful:
+            if dt is None or not (math.isfinite(dt) and dt > 0):
+                raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")
+        step = 0.0 if dt is None else float(dt)
+        out = np.empty((2, n))
+        CK.control_once(
+            self._ci, self._cf, self._arm, self._g, *arrays, self._state, step, out, self._scratch
+        )
+        return out[0], out[1]
+
+    def sliding_variable(
+        self, q: ArrayLike, qd: ArrayLike, q_ref: ArrayLike, qd_ref: ArrayLike
+    ) -> FloatArray:
+        """:math:`s(e, \\dot e)` for states (n,) or (B, n) (numpy, for inspection)."""
+        e = np.asarray(q, dtype=float) - np.asarray(q_ref, dtype=float)
+        ed = np.asarray(qd, dtype=float) - np.asarray(qd_ref, dtype=float)
+        return self._surface.value(e, ed)
+
+
+def _tolist(x: FloatArray) -> float | list[float]:
+    return float(x) if x.ndim == 0 else [float(v) for v in x]
+
+
+class PDSMC(SlidingModeController):
+    """PD sliding-mode control: :math:`s = \\dot e + \\lambda e`, :math:`\\nu = \\lambda\\dot e`."""
+
+    name = "pdsmc"
+
+    def __init__(
+        self,
+        model: PlanarArm,
+        *,
+        lam: ArrayLike,
+        k: ArrayLike,
+        switching: Switching = "sign",
+        width: ArrayLike | None = None,
+        law: Law = "model",
+        reaching: Reaching = "classic",
+        k2: ArrayLike | None = None,
+    ) -> None:
+        super().__init__(
+            model,
+            LinearSurface(lam),
+            k=k,
+            switching=switching,
+            width=width,
+            law=law,
+            reaching=reaching,
+            k2=k2,
+        )
+
+
+class TSMC(SlidingModeController):
+    """Terminal SMC: :math:`s = \\dot e + \\beta\\,\\mathrm{sig}(e)^\\gamma`, :math:`0 < \\gamma < 1`.
+
+    Give ``gamma`` or odd integers ``p > q`` (:math:`\\gamma = q/p`). ``eps_e`` guards the
+    singular term :math:`|e|^{\\gamma-1}`.
+    """
+
+    name = "tsmc"
+
+    def __init__(
+        self,
+        model: PlanarArm,
+        *,
+        beta: ArrayLike,
+        gamma: float | None = None,
+        p: int | None = None,
+        q: int | None = None,
+        k: ArrayLike,
+        switching: Switching = "sign",
+        width: ArrayLike | None = None,
+        law: Law = "model",
+        reaching: Reaching = "classic",
+        k2: ArrayLike | None = None,
+        eps_e: float = DEFAULT_EPS_E,
+        allow_nonterminal: bool = False,
+    ) -> None:
+        surface = TerminalSurface(
+            beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
+        )
+        super().__init__(
+            model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
+        )
+
+
+class FTSMC(SlidingModeController):
+    """Fast terminal SMC: :math:`s = \\dot e + \\alpha e + \\beta\\,\\mathrm{sig}(e)^\\gamma`.
+
+    Give ``gamma`` in (0, 1) or odd integers ``p > q`` (:math:`\\gamma = q/p`);
+    ``allow_nonterminal=True`` admits the paper's :math:`\\gamma > 1` only to measure it.
+    """
+
+    name = "ftsmc"
+
+    def __init__(
+        self,
+        model: PlanarArm,
+        *,
+        alpha: ArrayLike,
+        beta: ArrayLike,
+        gamma: float | None = None,
+        p: int | None = None,
+        q: int | None = None,
+        k: ArrayLike,
+        switching: Switching = "sign",
+        width: ArrayLike | None = None,
+        law: Law = "model",
+        reaching: Reaching = "classic",
+        k2: ArrayLike | None = None,
+        eps_e: float = DEFAULT_EPS_E,
+        allow_nonterminal: bool = False,
+    ) -> None:
+        surface = FastTerminal(
+            alpha, beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
+        )
+        super().__init__(
+            model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
+        )
+
+
+class NTSMC(SlidingModeController):
+    """Nonsingular terminal SMC (Feng, Yu & Man 2002):
+    :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`, :math:`1 < p/q < 2`.
+
+    The law is :math:`\\ddot q_d - (\\beta q/p)\\,\\mathrm{sig}(\\dot e)^{2-p/q} - r(s)`, which
+    gives :math:`\\dot s = -(p/(q\\beta))|\\dot e|^{p/q-1} r(s)`.
+    """
+
+    name = "ntsmc"
+
+    def __init__(
+        self,
+        model: PlanarArm,
+        *,
+        beta: ArrayLike,
+        gamma: float | None = None,
+        p: int | None = None,
+        q: int | None = None,
+        k: ArrayLike,
+        switching: Switching = "sign",
+        width: ArrayLike | None = None,
+        law: Law = "model",
+        reaching: Reaching = "classic",
+        k2: ArrayLike | None = None,
+    ) -> None:
+        surface = NonsingularTerminal(beta, gamma, p=p, q=q)
+        super().__init__(
+            model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
+        )

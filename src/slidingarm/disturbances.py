@@ -1,0 +1,171 @@
+"""What the plant suffers: torque disturbances and model mismatch (SPEC §4).
+
+Torque disturbances are evaluated at the sample times and held over each interval, like the
+control torque: the plant receives :math:`\\tau_k + d_k` over :math:`[t_k, t_{k+1})`. Actuator
+limits are a simulator option (``torque_limit``); they clip the controller's torque.
+
+Model mismatch makes the plant differ from the controller's nominal arm (:class:`ModelMismatch`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from slidingarm.models.planar import PlanarArm
+
+__all__ = [
+    "ConstantTorque",
+    "Disturbance",
+    "ModelMismatch",
+    "RandomTorque",
+    "SinusoidalTorque",
+    "disturbance_torque",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def _per_joint(
+    name: str, value: float | tuple[float, ...], *, nonneg: bool = False
+) -> float | tuple[float, ...]:
+    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    if arr.ndim != 1 or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be a finite number or one per joint, got {value!r}")
+    if nonneg and np.any(arr < 0):
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return float(arr[0]) if np.ndim(value) == 0 else tuple(arr.tolist())
+
+
+def _broadcast(name: str, value: float | tuple[float, ...], n: int) -> FloatArray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 1 and arr.shape[0] != n:
+        raise ValueError(f"{name} has {arr.shape[0]} values but the arm has {n} joints")
+    return np.broadcast_to(arr, (n,)).astype(float)
+
+
+@dataclass(frozen=True)
+class ConstantTorque:
+    """:math:`d(t) = d_0` for :math:`t \\ge t_{start}` (N m), per joint or scalar."""
+
+    value: float | tuple[float, ...] = 0.0
+    t_start: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "value", _per_joint("constant disturbance value", self.value))
+
+    def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
+        """Disturbance samples, shape (T, n)."""
+        v = _broadcast("constant disturbance value", self.value, n)
+        return np.where((t >= self.t_start)[:, None], v[None, :], 0.0)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "constant", "value": self.value, "t_start": self.t_start}
+
+
+@dataclass(frozen=True)
+class SinusoidalTorque:
+    """:math:`d(t) = A \\sin(2\\pi f t + \\varphi)` (N m); ``frequency`` in Hz."""
+
+    amplitude: float | tuple[float, ...] = 0.0
+    frequency: float = 1.0
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "amplitude", _per_joint("sinusoidal disturbance amplitude", self.amplitude)
+        )
+        if not (math.isfinite(self.frequency) and self.frequency >= 0):
+            raise ValueError(
+                f"sinusoidal disturbance frequency must be finite and >= 0 Hz, got {self.frequency!r}"
+            )
+
+    def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
+        """Disturbance samples, shape (T, n)."""
+        a = _broadcast("sinusoidal disturbance amplitude", self.amplitude, n)
+        return np.sin(2 * np.pi * self.frequency * t + self.phase)[:, None] * a[None, :]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kind": "sinusoidal",
+            "amplitude": self.amplitude,
+            "frequency": self.frequency,
+            "phase": self.phase,
+        }
+
+
+@dataclass(frozen=True)
+class RandomTorque:
+    """Gaussian torque :math:`d_k \\sim \\mathcal N(0, \\sigma^2)` drawn once per sample (N m),
+    held over the interval (band-limited white noise)."""
+
+    sigma: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "sigma", _per_joint("random disturbance sigma", self.sigma, nonneg=True)
+        )
+
+    def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
+        """Disturbance samples, shape (T, n)."""
+        s = _broadcast("random disturbance sigma", self.sigma, n)
+        return rng.standard_normal((t.shape[0], n)) * s[None, :]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "random", "sigma": self.sigma}
+
+
+Disturbance = ConstantTorque | SinusoidalTorque | RandomTorque
+
+
+def disturbance_torque(
+    disturbances: tuple[Disturbance, ...], t: FloatArray, n: int, rng: np.random.Generator
+) -> FloatArray:
+    """Sum of the disturbances at the sample times, shape (T, n); zeros if there are none."""
+    total = np.zeros((t.shape[0], n))
+    for d in disturbances:
+        total += d.torque(t, n, rng)
+    return total
+
+
+@dataclass(frozen=True)
+class ModelMismatch:
+    """How the real plant differs from the nominal arm the controller uses.
+
+    The plant is the nominal arm with masses scaled by ``1 + mass_error``, lengths by
+    ``1 + length_error`` (scalars or per joint; centres of mass keep their fraction of the link,
+    inertias scale as :math:`m l^2`), then a point ``payload`` (kg) at the tool.
+    """
+
+    payload: float = 0.0
+    mass_error: float | tuple[float, ...] = 0.0
+    length_error: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.payload) and self.payload >= 0):
+            raise ValueError(f"payload must be a finite mass >= 0 kg, got {self.payload!r}")
+        for name in ("mass_error", "length_error"):
+            v = _per_joint(name, getattr(self, name))
+            if np.any(np.asarray(v) <= -1):
+                raise ValueError(
+                    f"{name} must be > -1 (a relative error; -1 would remove the link), got {v!r}"
+                )
+            object.__setattr__(self, name, v)
+
+    def apply(self, nominal: PlanarArm) -> PlanarArm:
+        """The plant: the nominal arm with this mismatch."""
+        fm = 1.0 + _broadcast("mass_error", self.mass_error, nominal.n)
+        fl = 1.0 + _broadcast("length_error", self.length_error, nominal.n)
+        arm = nominal.scaled(mass=fm, length=fl)
+        return arm.with_payload(self.payload) if self.payload > 0 else arm
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "payload": self.payload,
+            "mass_error": self.mass_error,
+            "length_error": self.length_error,
+        }

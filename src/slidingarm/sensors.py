@@ -1,0 +1,275 @@
+"""What the controller sees: position noise, sensor faults and the velocity estimate (SPEC §4).
+
+A :class:`Sensor` composes a position-noise model, any number of :class:`SensorFault` and one
+velocity estimator. It turns into plain arrays before the compiled loop runs:
+
+- ``add`` (T, n): added to the true position at each sample (noise, bias faults);
+- ``hold`` (T, n): where set, the previous measurement is repeated (stuck sensor, dropout);
+- the velocity estimator's code and parameters.
+
+All randomness comes from the ``numpy.random.Generator`` the simulator passes in, drawn in a
+fixed order (noise, then dropouts), so a run is reproducible from its seed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from slidingarm import _engine as E
+
+__all__ = [
+    "VELOCITY_ESTIMATORS",
+    "BackwardDifference",
+    "DirtyDerivative",
+    "GaussianNoise",
+    "LevantDifferentiator",
+    "Sensor",
+    "SensorFault",
+    "TrueVelocity",
+    "VelocityEstimator",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def _positive(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a number, got {value!r}") from exc
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a finite value > 0, got {value!r}")
+    return v
+
+
+# ---------------------------------------------------------------------------- velocity
+@dataclass(frozen=True)
+class TrueVelocity:
+    """The controller uses the plant's true joint velocity (an ideal tachometer)."""
+
+    kind: Literal["true"] = field(default="true", init=False)
+
+    def params(self, n: int) -> tuple[int, FloatArray]:
+        """Compiled code and ``(NVF, n)`` parameter table."""
+        return E.VEL_TRUE, np.zeros((E.NVF, n))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind}
+
+
+@dataclass(frozen=True)
+class BackwardDifference:
+    """:math:`\\hat{\\dot q}_k = (\\tilde q_k - \\tilde q_{k-1})/T_s`: the paper's remark that
+    differentiation amplifies noise (white noise of std σ becomes :math:`\\sqrt2\\sigma/T_s`)."""
+
+    kind: Literal["difference"] = field(default="difference", init=False)
+
+    def params(self, n: int) -> tuple[int, FloatArray]:
+        """Compiled code and ``(NVF, n)`` parameter table."""
+        return E.VEL_DIFFERENCE, np.zeros((E.NVF, n))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind}
+
+
+@dataclass(frozen=True)
+class DirtyDerivative:
+    """Filtered derivative :math:`s/(T_f s + 1)`, discretised by backward Euler:
+    :math:`v_k = (T_f v_{k-1} + \\tilde q_k - \\tilde q_{k-1})/(T_f + T_s)`.
+
+    ``time_constant`` :math:`T_f` (s); the default 5 ms is a 32 Hz corner.
+    """
+
+    time_constant: float = 0.005
+    kind: Literal["filtered"] = field(default="filtered", init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "time_constant", _positive("time_constant", self.time_constant))
+
+    def params(self, n: int) -> tuple[int, FloatArray]:
+        """Compiled code and ``(NVF, n)`` parameter table."""
+        vf = np.zeros((E.NVF, n))
+        vf[E.VF_TIME_CONSTANT] = self.time_constant
+        return E.VEL_FILTERED, vf
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "time_constant": self.time_constant}
+
+
+@dataclass(frozen=True)
+class LevantDifferentiator:
+    """Levant's first-order robust exact differentiator (Levant 1998), explicit Euler:
+
+    .. math::
+
+        \\dot z_0 = -\\lambda_1 L^{1/2}|z_0 - \\tilde q|^{1/2}\\mathrm{sign}(z_0 - \\tilde q) + z_1,
+        \\qquad \\dot z_1 = -\\lambda_0 L\\,\\mathrm{sign}(z_0 - \\tilde q)
+
+    with :math:`z_1` the velocity estimate. ``lipschitz`` :math:`L` bounds :math:`|\\ddot q|`
+    (rad/s²); :math:`\\lambda_1 = 1.5, \\lambda_0 = 1.1` are Levant's standard values.
+    """
+
+    lipschitz: float = 50.0
+    lambda1: float = 1.5
+    lambda0: float = 1.1
+    kind: Literal["levant"] = field(default="levant", init=False)
+
+    def __post_init__(self) -> None:
+        for name in ("lipschitz", "lambda1", "lambda0"):
+            object.__setattr__(self, name, _positive(name, getattr(self, name)))
+
+    def params(self, n: int) -> tuple[int, FloatArray]:
+        """Compiled code and ``(NVF, n)`` parameter table."""
+        vf = np.zeros((E.NVF, n))
+        vf[E.VF_LIPSCHITZ] = self.lipschitz
+        vf[E.VF_LAMBDA1] = self.lambda1
+        vf[E.VF_LAMBDA0] = self.lambda0
+        return E.VEL_LEVANT, vf
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "lipschitz": self.lipschitz,
+            "lambda1": self.lambda1,
+            "lambda0": self.lambda0,
+        }
+
+
+VelocityEstimator = TrueVelocity | BackwardDifference | DirtyDerivative | LevantDifferentiator
+
+#: Velocity estimators by name.
+VELOCITY_ESTIMATORS: dict[str, type[VelocityEstimator]] = {
+    "true": TrueVelocity,
+    "difference": BackwardDifference,
+    "filtered": DirtyDerivative,
+    "levant": LevantDifferentiator,
+}
+
+
+# ---------------------------------------------------------------------------- position
+@dataclass(frozen=True)
+class GaussianNoise:
+    """Position noise :math:`n_k \\sim \\mathcal N(0, \\sigma^2 I)`, independent per sample.
+
+    ``sigma`` (rad) is a scalar or one value per joint, ``>= 0``.
+    """
+
+    sigma: float | tuple[float, ...] = 0.0
+
+    def __post_init__(self) -> None:
+        arr = np.atleast_1d(np.asarray(self.sigma, dtype=float))
+        if arr.ndim != 1 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
+            raise ValueError(f"noise sigma must be finite and >= 0 (rad), got {self.sigma!r}")
+        value: float | tuple[float, ...] = (
+            float(arr[0]) if arr.size == 1 and np.ndim(self.sigma) == 0 else tuple(arr.tolist())
+        )
+        object.__setattr__(self, "sigma", value)
+
+    def sample(self, rng: np.random.Generator, shape: tuple[int, int]) -> FloatArray:
+        """Draw noise of shape ``(T, n)``."""
+        sig = np.asarray(self.sigma, dtype=float)
+        if sig.ndim == 1 and sig.shape[0] != shape[1]:
+            raise ValueError(
+                f"noise sigma has {sig.shape[0]} values but the arm has {shape[1]} joints"
+            )
+        return rng.standard_normal(shape) * sig
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "gaussian", "sigma": self.sigma}
+
+
+FaultKind = Literal["bias", "stuck", "dropout"]
+
+
+@dataclass(frozen=True)
+class SensorFault:
+    """A position-sensor fault on one joint (1-based ``joint``) from ``t_start`` (s) on.
+
+    - ``bias``: the measurement is offset by ``value`` (rad);
+    - ``stuck``: the measurement freezes at its value just before ``t_start``;
+    - ``dropout``: each sample is lost with ``probability``; a lost sample repeats the last one.
+    """
+
+    kind: FaultKind
+    joint: int
+    t_start: float = 0.0
+    value: float = 0.0
+    probability: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("bias", "stuck", "dropout"):
+            raise ValueError(f"fault kind must be 'bias', 'stuck' or 'dropout', got {self.kind!r}")
+        if not isinstance(self.joint, int | np.integer) or self.joint < 1:
+            raise ValueError(f"fault joint must be a joint number >= 1, got {self.joint!r}")
+        if not math.isfinite(self.t_start) or self.t_start < 0:
+            raise ValueError(f"fault t_start must be a finite time >= 0 s, got {self.t_start!r}")
+        if not math.isfinite(self.value):
+            raise ValueError(f"fault value must be finite, got {self.value!r}")
+        if not 0.0 <= self.probability <= 1.0:
+            raise ValueError(f"fault probability must lie in [0, 1], got {self.probability!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"kind": self.kind, "joint": self.joint, "t_start": self.t_start}
+        if self.kind == "bias":
+            d["value"] = self.value
+        if self.kind == "dropout":
+            d["probability"] = self.probability
+        return d
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """What the controller measures: noise, faults and a velocity estimator."""
+
+    noise: GaussianNoise | None = None
+    velocity: VelocityEstimator = field(default_factory=TrueVelocity)
+    faults: tuple[SensorFault, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "faults", tuple(self.faults))
+        if not isinstance(
+            self.velocity,
+            TrueVelocity | BackwardDifference | DirtyDerivative | LevantDifferentiator,
+        ):
+            raise ValueError(f"velocity must be a velocity estimator, got {self.velocity!r}")
+
+    @property
+    def random(self) -> bool:
+        """Whether the sensor draws random numbers."""
+        noisy = self.noise is not None and np.any(np.asarray(self.noise.sigma) > 0)
+        return bool(noisy or any(f.kind == "dropout" for f in self.faults))
+
+    def arrays(
+        self, t: FloatArray, n: int, rng: np.random.Generator
+    ) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """``(add, hold)`` of shape (T, n) for sample times ``t``."""
+        nt = t.shape[0]
+        add = np.zeros((nt, n))
+        hold = np.zeros((nt, n), dtype=np.bool_)
+        if self.noise is not None:
+            add += self.noise.sample(rng, (nt, n))
+        for fault in self.faults:
+            j = fault.joint - 1
+            if j >= n:
+                raise ValueError(f"fault joint {fault.joint} does not exist on a {n}-joint arm")
+            active = t >= fault.t_start
+            if fault.kind == "bias":
+                add[active, j] += fault.value
+            elif fault.kind == "stuck":
+                hold[active, j] = True
+            else:
+                lost = rng.random(nt) < fault.probability
+                hold[active & lost, j] = True
+        return add, hold
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "noise": None if self.noise is None else self.noise.to_dict(),
+            "velocity": self.velocity.to_dict(),
+            "faults": [f.to_dict() for f in self.faults],
+        }
