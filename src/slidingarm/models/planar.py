@@ -223,7 +223,9 @@ class PlanarArm:
         m, ln, c, inert = (a.copy() for a in (self._masses, self._lengths, self._com, self._inertia))
         mn, cn, lnn = m[-1], c[-1], ln[-1]
         m_new = mn + p
-        c_new = (mn * cn + p * lnn) / m_new
+        # = (m c + p l) / m', written so that p = 0 returns c exactly and rounding cannot
+        # carry the centre of mass past the tip
+        c_new = min(cn + (p / m_new) * (lnn - cn), lnn)
         inert[-1] = inert[-1] + mn * (cn - c_new) ** 2 + p * (lnn - c_new) ** 2
         m[-1] = m_new
         c[-1] = c_new
@@ -235,8 +237,16 @@ class PlanarArm:
         Centres of mass scale with the lengths (they stay at the same fraction of the link);
         centroidal inertias scale as :math:`m l^2`. Factors are scalars or per link.
         """
-        fm = np.broadcast_to(_vector("mass scale", mass, None), (self.n,)).astype(float)
-        fl = np.broadcast_to(_vector("length scale", length, None), (self.n,)).astype(float)
+        factors = {
+            "mass scale": _vector("mass scale", mass, None),
+            "length scale": _vector("length scale", length, None),
+        }
+        for name, f in factors.items():
+            if f.shape[0] not in (1, self.n):
+                raise ValueError(
+                    f"{name} must be one value or {self.n} (one per link), got {f.shape[0]}"
+                )
+        fm, fl = (np.broadcast_to(f, (self.n,)).astype(float) for f in factors.values())
         if np.any(fm <= 0) or np.any(fl <= 0):
             raise ValueError("mass and length scale factors must be > 0")
         return PlanarArm(
