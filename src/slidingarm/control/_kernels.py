@@ -52,8 +52,17 @@ CF_K2 = 5
 CF_EPS_E = 6
 NCF = 7
 
+# rows of the control workspace after the dynamics' MK.WORK_ROWS: nu, r, the commanded
+# acceleration, and the paper's law's right-hand side, solution and f
+_ROW_NU = MK.WORK_ROWS
+_ROW_R = MK.WORK_ROWS + 1
+_ROW_ACC = MK.WORK_ROWS + 2
+_ROW_RHS = MK.WORK_ROWS + 3
+_ROW_COL = MK.WORK_ROWS + 4
+_ROW_F = MK.WORK_ROWS + 5
+
 #: Rows of the control workspace ``work`` (shape ``(CONTROL_WORK_ROWS, n)``).
-CONTROL_WORK_ROWS = MK.WORK_ROWS + 3
+CONTROL_WORK_ROWS = MK.WORK_ROWS + 6
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -81,6 +90,35 @@ def switch(code: int, s: float, width: float) -> float:
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _surface_joint(
+    ci: np.ndarray, cf: np.ndarray, j: int, ej: float, edj: float
+) -> tuple[float, float]:
+    """``(s, nu)`` of joint ``j`` for the errors ``ej, edj``; see :func:`surface_into`."""
+    if ci[CI_SURFACE] == SURFACE_FAST_TERMINAL:
+        alpha = cf[CF_ALPHA, j]
+        beta = cf[CF_BETA, j]
+        s = edj + alpha * ej
+        gain = alpha
+        if beta != 0.0:
+            gamma = cf[CF_GAMMA, j]
+            ae = abs(ej)
+            eps_e = cf[CF_EPS_E, j]
+            if ae >= eps_e:
+                pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
+                s += beta * pw * _sign(ej)
+                gain += beta * gamma * pw / ae
+            else:
+                s += beta * (ae**gamma) * _sign(ej)
+                gain += beta * gamma * eps_e ** (gamma - 1.0)
+        return s, gain * edj
+    beta = cf[CF_BETA, j]
+    gamma = cf[CF_GAMMA, j]
+    aed = abs(edj)
+    sg = _sign(edj)
+    return ej + (aed**gamma) * sg / beta, beta / gamma * (aed ** (2.0 - gamma)) * sg
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def surface_into(
     ci: np.ndarray,
     cf: np.ndarray,
@@ -102,39 +140,11 @@ def surface_into(
     .. math:: s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^\\gamma,\\qquad
               \\nu = \\frac{\\beta}{\\gamma}\\,\\mathrm{sig}(\\dot e)^{2-\\gamma}
     """
-    n = e.shape[0]
-    if ci[CI_SURFACE] == SURFACE_FAST_TERMINAL:
-        for j in range(n):
-            alpha = cf[CF_ALPHA, j]
-            beta = cf[CF_BETA, j]
-            ej = e[j]
-            s = ed[j] + alpha * ej
-            gain = alpha
-            if beta != 0.0:
-                gamma = cf[CF_GAMMA, j]
-                ae = abs(ej)
-                eps_e = cf[CF_EPS_E, j]
-                if ae >= eps_e:
-                    pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
-                    s += beta * pw * _sign(ej)
-                    gain += beta * gamma * pw / ae
-                else:
-                    s += beta * (ae**gamma) * _sign(ej)
-                    gain += beta * gamma * eps_e ** (gamma - 1.0)
-            s_out[j] = s
-            nu_out[j] = gain * ed[j]
-    else:
-        for j in range(n):
-            beta = cf[CF_BETA, j]
-            gamma = cf[CF_GAMMA, j]
-            edj = ed[j]
-            aed = abs(edj)
-            sg = _sign(edj)
-            s_out[j] = e[j] + (aed**gamma) * sg / beta
-            nu_out[j] = beta / gamma * (aed ** (2.0 - gamma)) * sg
+    for j in range(e.shape[0]):
+        s_out[j], nu_out[j] = _surface_joint(ci, cf, j, e[j], ed[j])
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def control_into(
     ci: np.ndarray,
     cf: np.ndarray,
@@ -157,9 +167,14 @@ def control_into(
 
     ``q, qd`` are what the controller measures; ``st_state`` (n,) is the super-twisting
     integral :math:`w`, advanced by ``dt`` after use (ignored by the classic reaching law).
-    ``mmat``, ``lw`` are (n, n) scratch arrays, ``work`` is ``(CONTROL_WORK_ROWS, n)``.
+    ``mmat``, ``lw`` are (n, n) scratch arrays, ``work`` is ``(CONTROL_WORK_ROWS, n)``; on
+    return its rows 0-1 hold the cosines and sines of the absolute angles of ``q`` (see
+    :func:`slidingarm.models._kernels.aba_from_angles_into`, which the simulator feeds them to
+    when the plant's state is ``q``).
 
-    ``law = model`` (SPEC §3): :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q,\\dot q)`.
+    ``law = model`` (SPEC §3): :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q,\\dot q)`,
+    computed as the inverse dynamics (RNEA, O(n)) of the nominal arm at the acceleration
+    :math:`\\ddot q_d - \\nu - r`.
 
     ``law = paper`` (the paper's eqs. 19-22, kept to measure its cost): with
     :math:`f = -\\hat M^{-1}\\hat h` and :math:`g_i = [\\hat M^{-1}]_{ii}`,
@@ -167,42 +182,34 @@ def control_into(
     :math:`M^{-1}` used as a scalar).
     """
     n = q.shape[0]
-    mk_work = work[: MK.WORK_ROWS]
-    e = work[MK.WORK_ROWS]
-    ed = work[MK.WORK_ROWS + 1]
-    nu = work[MK.WORK_ROWS + 2]
-    for j in range(n):
-        e[j] = q[j] - q_ref[j]
-        ed[j] = qd[j] - qd_ref[j]
-    surface_into(ci, cf, e, ed, s_out, nu)
-    # reaching term r, stored in e (no longer needed)
-    r = e
     swcode = ci[CI_SWITCHING]
-    if ci[CI_REACHING] == REACH_CLASSIC:
-        for j in range(n):
-            r[j] = cf[CF_K, j] * switch(swcode, s_out[j], cf[CF_WIDTH, j])
-    else:
-        for j in range(n):
-            sj = s_out[j]
-            r[j] = cf[CF_K, j] * math.sqrt(abs(sj)) * _sign(sj) + st_state[j]
-            st_state[j] += dt * cf[CF_K2, j] * switch(swcode, sj, cf[CF_WIDTH, j])
+    classic = ci[CI_REACHING] == REACH_CLASSIC
+    nu = work[_ROW_NU]
+    r = work[_ROW_R]
+    acc = work[_ROW_ACC]
+    for j in range(n):
+        s, nu_j = _surface_joint(ci, cf, j, q[j] - q_ref[j], qd[j] - qd_ref[j])
+        s_out[j] = s
+        nu[j] = nu_j
+        # reaching term r
+        if classic:
+            r[j] = cf[CF_K, j] * switch(swcode, s, cf[CF_WIDTH, j])
+        else:
+            r[j] = cf[CF_K, j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
+            st_state[j] += dt * cf[CF_K2, j] * switch(swcode, s, cf[CF_WIDTH, j])
+        acc[j] = qdd_ref[j] - nu_j - r[j]
     if ci[CI_LAW] == LAW_MODEL:
-        MK.mass_and_bias_into(arm, g, q, qd, mmat, tau_out, mk_work)
-        for i in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += mmat[i, j] * (qdd_ref[j] - nu[j] - r[j])
-            tau_out[i] += acc
+        MK.inverse_dynamics_into(arm, g, q, qd, acc, tau_out, work)
     else:
-        # h into ed (velocity error no longer needed), f = -M^{-1} h into tau_out
-        h = ed
-        MK.mass_and_bias_into(arm, g, q, qd, mmat, h, mk_work)
-        rhs = mk_work[7]
+        # h into acc (no longer needed), f = -M^{-1} h into f_saved
+        h = acc
+        MK.mass_and_bias_into(arm, g, q, qd, mmat, h, work)
+        rhs = work[_ROW_RHS]
+        col = work[_ROW_COL]
+        f_saved = work[_ROW_F]
         for j in range(n):
             rhs[j] = -h[j]
-        col = mk_work[6]
         MK.cholesky_solve_into(mmat, rhs, col, lw)
-        f_saved = mk_work[5]
         for j in range(n):
             f_saved[j] = col[j]
         for i in range(n):

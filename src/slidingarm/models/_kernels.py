@@ -26,6 +26,9 @@ and zero for ``j > i``; its rotational Jacobian is the row of ones up to ``i``. 
 With this factorisation :math:`\\dot M - 2C = \\sum_i m_i (\\dot J^T J - J^T \\dot J)` is
 skew-symmetric, and :math:`C \\dot q` is the Coriolis and centrifugal torque of the Lagrangian
 equations (in the plane the rotational part carries no gyroscopic term).
+
+The bias :math:`h` and the inverse dynamics use the recursive Newton-Euler algorithm, the
+forward dynamics the articulated-body algorithm (both O(n), neither forms :math:`M`).
 """
 
 from __future__ import annotations
@@ -37,6 +40,8 @@ from numba import njit
 
 __all__ = [
     "WORK_ROWS",
+    "aba_from_angles_into",
+    "angles_into",
     "bias_into",
     "cholesky_solve_into",
     "coriolis_into",
@@ -45,6 +50,7 @@ __all__ = [
     "inverse_dynamics_into",
     "mass_and_bias_into",
     "mass_matrix_into",
+    "shifted_angles_into",
 ]
 
 #: Rows of the ``(WORK_ROWS, n)`` workspace that :func:`forward_dynamics_into` needs.
@@ -55,7 +61,7 @@ _INLINE = "always"
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
-def _angles(q: np.ndarray, work: np.ndarray) -> None:
+def angles_into(q: np.ndarray, work: np.ndarray) -> None:
     """Cosine (row 0) and sine (row 1) of the absolute angles ``phi_i = q_0 + ... + q_i``."""
     phi = 0.0
     for i in range(q.shape[0]):
@@ -70,7 +76,7 @@ def mass_matrix_into(arm: np.ndarray, q: np.ndarray, out: np.ndarray, work: np.n
 
     ``work`` is a ``(WORK_ROWS, n)`` scratch array.
     """
-    _angles(q, work)
+    angles_into(q, work)
     _mass_from_angles(arm, q.shape[0], out, work)
 
 
@@ -113,7 +119,7 @@ def coriolis_into(
     With this choice :math:`\\dot M - 2C` is skew-symmetric.
     """
     n = q.shape[0]
-    _angles(q, work)
+    angles_into(q, work)
     cphi = work[0]
     sphi = work[1]
     omega = work[4]
@@ -152,14 +158,16 @@ def coriolis_into(
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy")
-def gravity_into(arm: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+def gravity_into(
+    arm: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work: np.ndarray
+) -> None:
     """Fill ``out`` (n,) with the gravity torque :math:`G(q) = \\partial V / \\partial q`.
 
     .. math:: G_j = g \\sum_{i \\ge j} m_i \\Big(\\sum_{a=j}^{i-1} l_a \\cos\\phi_a
               + c_i \\cos\\phi_i\\Big)
     """
     n = q.shape[0]
-    _angles(q, work)
+    angles_into(q, work)
     cphi = work[0]
     # Backward recursion: mass outboard of joint j and its first moment about joint j.
     mass_out = 0.0  # total mass of links j+1..n-1
@@ -182,11 +190,11 @@ def bias_into(
     Computed by the planar recursive Newton-Euler algorithm with zero joint acceleration and
     the base accelerated upwards by ``g`` (the usual way of folding gravity in), O(n).
     """
-    _angles(q, work)
+    angles_into(q, work)
     _rnea_from_angles(arm, g, qd, qd, 0.0, out, work)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy")
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
 def inverse_dynamics_into(
     arm: np.ndarray,
     g: float,
@@ -197,7 +205,7 @@ def inverse_dynamics_into(
     work: np.ndarray,
 ) -> None:
     """Fill ``out`` (n,) with :math:`\\tau = M(q)\\ddot q + C(q,\\dot q)\\dot q + G(q)` (RNEA)."""
-    _angles(q, work)
+    angles_into(q, work)
     _rnea_from_angles(arm, g, qd, qdd, 1.0, out, work)
 
 
@@ -301,23 +309,196 @@ def forward_dynamics_into(
 ) -> bool:
     """Fill ``out`` (n,) with :math:`\\ddot q = M(q)^{-1}(\\tau - h(q, \\dot q))`.
 
-    ``mmat`` and ``lw`` are (n, n) scratch arrays, ``work`` is ``(WORK_ROWS, n)``. Returns
-    ``False`` if the mass matrix is not positive definite (cannot happen for valid arms).
+    Computed by the articulated-body algorithm (:func:`aba_from_angles_into`), O(n), without
+    forming :math:`M`. ``work`` is ``(WORK_ROWS, n)``; ``mmat`` and ``lw`` are not used (they
+    were the scratch of an earlier :math:`M` + Cholesky version and are kept so that callers
+    need not change). Returns ``False`` if the mass matrix is not positive definite (cannot
+    happen for valid arms; a non-finite state also returns ``False``).
     """
-    n = q.shape[0]
-    _angles(q, work)
-    _mass_from_angles(arm, n, mmat, work)
-    _rnea_from_angles(arm, g, qd, qd, 0.0, out, work)
+    angles_into(q, work)
+    return aba_from_angles_into(arm, g, qd, tau, out, work)
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def aba_from_angles_into(
+    arm: np.ndarray,
+    g: float,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """Forward dynamics by the articulated-body algorithm, from the angles in ``work``.
+
+    ``work`` rows 0-1 must hold :math:`\\cos\\phi_i, \\sin\\phi_i` (as left by :func:`angles_into`,
+    or by any kernel of this module that took the same ``q``); rows 2-6 are used.
+
+    Featherstone's ABA (*Rigid Body Dynamics Algorithms*, 2008, Table 7.1) in the plane: a
+    spatial vector is (angular z; linear x, y) about joint ``i``'s point, in world axes. With
+    the joint axis :math:`S = (1, 0, 0)`, link ``i``'s inertia about its joint
+
+    .. math:: I_i = \\begin{pmatrix} I_i + m_i c_i^2 & -m_i c_y & m_i c_x \\\\
+              -m_i c_y & m_i & 0 \\\\ m_i c_x & 0 & m_i \\end{pmatrix}
+
+    (:math:`(c_x, c_y) = c_i u_i`), the passes are: velocities base to tip; articulated
+    inertias :math:`I^A_i = I_i + X^T I^a_{i+1} X`, :math:`I^a = I^A - U U^T / D`,
+    :math:`U = I^A S`, :math:`D = S^T U`, and bias forces
+    :math:`p^a = p^A + I^a c + U u / D`, :math:`u = \\tau_i - S^T p^A` tip to base;
+    accelerations :math:`\\ddot q_i = (u_i - U_i^T a'_i) / D_i` base to tip, the base
+    accelerated upwards by ``g``. The :math:`D_i` are the pivots of a factorisation of
+    :math:`M`, so the function returns ``False`` (``out`` undefined) if one is not positive.
+    O(n) with one division per joint; more accurate than forming :math:`M` and solving.
+    """
+    n = qd.shape[0]
+    # pass 1, base to tip: absolute rate (row 2) and velocity of joint i's point (rows 3-4)
+    w = 0.0
+    vx = 0.0
+    vy = 0.0
     for i in range(n):
-        out[i] = tau[i] - out[i]
-    return cholesky_solve_into(mmat, out, out, lw)
+        w += qd[i]
+        work[2, i] = w
+        work[3, i] = vx
+        work[4, i] = vy
+        vx -= w * arm[1, i] * work[1, i]
+        vy += w * arm[1, i] * work[0, i]
+    # pass 2, tip to base. The articulated inertia handed to link i by its child, moved to
+    # joint i, is [[ca, cb, cc], [cb, cd, ce], [cc, ce, cf]], its bias force (p0, p1, p2).
+    ca = 0.0
+    cb = 0.0
+    cc = 0.0
+    cd = 0.0
+    ce = 0.0
+    cf = 0.0
+    p0 = 0.0
+    p1 = 0.0
+    p2 = 0.0
+    for i in range(n - 1, -1, -1):
+        m = arm[0, i]
+        c = arm[2, i]
+        wi = work[2, i]
+        vxi = work[3, i]
+        vyi = work[4, i]
+        # rigid-body inertia of link i about joint i, and its bias force v x* (I v)
+        ia = arm[3, i] + m * c * c
+        ib = -m * c * work[1, i]
+        ic = m * c * work[0, i]
+        fx = ib * wi + m * vxi
+        fy = ic * wi + m * vyi
+        # articulated inertia I^A (first column U = (d, ib, ic)) and bias force p^A
+        d = ia + ca
+        ib += cb
+        ic += cc
+        dd = m + cd
+        de = ce
+        df = m + cf
+        pa0 = vxi * fy - vyi * fx + p0
+        pa1 = -wi * fy + p1
+        pa2 = wi * fx + p2
+        if not d > 0.0:
+            return False
+        dinv = 1.0 / d
+        u = tau[i] - pa0
+        out[i] = u
+        # keep U, 1/D for pass 3 (rows 5, 6, 2) and c_i = v_i x (S qd_i) (rows 3-4)
+        cvx = vyi * qd[i]
+        cvy = -vxi * qd[i]
+        work[2, i] = dinv
+        work[3, i] = cvx
+        work[4, i] = cvy
+        work[5, i] = ib
+        work[6, i] = ic
+        if i == 0:
+            break
+        # I^a = I^A - U U^T / D, whose first row and column vanish, and
+        # p^a = p^A + I^a c + U u / D, whose first entry is tau_i
+        bd = ib * dinv
+        cdv = ic * dinv
+        dd -= ib * bd
+        de -= ib * cdv
+        df -= ic * cdv
+        ud = u * dinv
+        pa1 += dd * cvx + de * cvy + ib * ud
+        pa2 += de * cvx + df * cvy + ic * ud
+        # move both to joint i-1, by r = l_{i-1} u_{i-1}
+        rx = arm[1, i - 1] * work[0, i - 1]
+        ry = arm[1, i - 1] * work[1, i - 1]
+        cb = rx * de - ry * dd
+        cc = rx * df - ry * de
+        ca = rx * cc - ry * cb
+        cd = dd
+        ce = de
+        cf = df
+        p0 = tau[i] + rx * pa2 - ry * pa1
+        p1 = pa1
+        p2 = pa2
+    # pass 3, base to tip: a' = X a_parent + c, qdd = (u - U^T a') / D, a = a' + S qdd;
+    # as U = (D, U_x, U_y), the new absolute angular acceleration is (u - U_x a'_x - U_y a'_y) / D
+    alpha = 0.0
+    ax = 0.0
+    ay = g
+    for i in range(n):
+        if i > 0:
+            ax += work[3, i] - alpha * arm[1, i - 1] * work[1, i - 1]
+            ay += work[4, i] + alpha * arm[1, i - 1] * work[0, i - 1]
+        alpha_i = (out[i] - work[5, i] * ax - work[6, i] * ay) * work[2, i]
+        out[i] = alpha_i - alpha
+        alpha = alpha_i
+    return True
+
+
+# reciprocals for the Taylor series of shifted_angles_into
+_R6 = 1.0 / 6.0
+_R12 = 1.0 / 12.0
+_R20 = 1.0 / 20.0
+_R30 = 1.0 / 30.0
+_R42 = 1.0 / 42.0
+_R56 = 1.0 / 56.0
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def shifted_angles_into(base: np.ndarray, dq: np.ndarray, q: np.ndarray, work: np.ndarray) -> None:
+    """Fill ``work`` rows 0-1 with the cosines and sines of the absolute angles of ``q``, given
+    those of ``q - dq`` in ``base`` (2, n), for a small step ``dq`` (n,).
+
+    With :math:`\\Delta_i = \\sum_{j \\le i} \\delta q_j`, each angle is rotated,
+    :math:`\\cos(\\phi + \\Delta) = \\cos\\phi + (\\cos\\phi\\,(\\cos\\Delta - 1) - \\sin\\phi
+    \\sin\\Delta)` and likewise for the sine, with :math:`\\sin\\Delta` and
+    :math:`\\cos\\Delta - 1` from their Taylor series, exact to rounding for
+    :math:`|\\Delta| \\le 2^{-5}` (the next terms are below :math:`10^{-18}` relative). As
+    accurate as :func:`angles_into` (whose rounding of the summed angle is of the same order) at a
+    fraction of the cost of the sines and cosines; if a step is larger, it calls
+    :func:`angles_into` on ``q`` instead.
+    """
+    n = dq.shape[0]
+    delta = 0.0
+    for i in range(n):
+        delta += dq[i]
+        if not abs(delta) <= 0.03125:
+            angles_into(q, work)
+            return
+    delta = 0.0
+    for i in range(n):
+        delta += dq[i]
+        d2 = delta * delta
+        sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
+        cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
+        c = base[0, i]
+        s = base[1, i]
+        work[0, i] = c + (c * cos_m1 - s * sin_d)
+        work[1, i] = s + (s * cos_m1 + c * sin_d)
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
 def mass_and_bias_into(
-    arm: np.ndarray, g: float, q: np.ndarray, qd: np.ndarray, mmat: np.ndarray, h: np.ndarray, work: np.ndarray
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    mmat: np.ndarray,
+    h: np.ndarray,
+    work: np.ndarray,
 ) -> None:
     """Fill ``mmat`` with :math:`M(q)` and ``h`` with :math:`h(q, \\dot q)`, sharing the trigonometry."""
-    _angles(q, work)
+    angles_into(q, work)
     _mass_from_angles(arm, q.shape[0], mmat, work)
     _rnea_from_angles(arm, g, qd, qd, 0.0, h, work)

@@ -43,7 +43,9 @@ def _vector(name: str, value: ArrayLike, n: int | None) -> FloatArray:
         raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from exc
     arr = np.atleast_1d(arr)
     if arr.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional (one value per link), got shape {arr.shape}")
+        raise ValueError(
+            f"{name} must be one-dimensional (one value per link), got shape {arr.shape}"
+        )
     if n is not None and arr.shape[0] != n:
         raise ValueError(f"{name} must have {n} values (one per link), got {arr.shape[0]}")
     if not np.all(np.isfinite(arr)):
@@ -68,7 +70,9 @@ def _batch_coriolis(
 
 
 @njit(cache=True)
-def _batch_gravity(arm: FloatArray, g: float, q: FloatArray, out: FloatArray) -> None:  # pragma: no cover
+def _batch_gravity(
+    arm: FloatArray, g: float, q: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover
     work = np.empty((K.WORK_ROWS, q.shape[1]))
     for b in range(q.shape[0]):
         K.gravity_into(arm, g, q[b], out[b], work)
@@ -220,7 +224,9 @@ class PlanarArm:
         p = float(mass)
         if not np.isfinite(p) or p < 0:
             raise ValueError(f"payload mass must be a finite value >= 0 kg, got {mass!r}")
-        m, ln, c, inert = (a.copy() for a in (self._masses, self._lengths, self._com, self._inertia))
+        m, ln, c, inert = (
+            a.copy() for a in (self._masses, self._lengths, self._com, self._inertia)
+        )
         mn, cn, lnn = m[-1], c[-1], ln[-1]
         m_new = mn + p
         # = (m c + p l) / m', written so that p = 0 returns c exactly and rounding cannot
@@ -481,7 +487,9 @@ class PlanarArm:
         B, C2 : ndarray, shape (3, 3) or (B, 3, 3) each
         """
         if self.n != 3:
-            raise ValueError(f"craig_split is defined for a 3-joint arm; this arm has {self.n} joints")
+            raise ValueError(
+                f"craig_split is defined for a 3-joint arm; this arm has {self.n} joints"
+            )
         (qa,), single = self._states(q=q)
         nb = qa.shape[0]
         eye = np.eye(3)
@@ -573,4 +581,3 @@ class PlanarArm:
             lines.append(f"{indent}</body>")
         lines += ["  </worldbody>", "</mujoco>", ""]
         return "\n".join(lines)
-
