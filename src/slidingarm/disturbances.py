@@ -41,6 +41,20 @@ def _per_joint(
     return float(arr[0]) if np.ndim(value) == 0 else tuple(arr.tolist())
 
 
+def _plain(value: float | tuple[float, ...]) -> float | list[float]:
+    """A per-joint value as JSON has it (a list, not a tuple), so params survive a round trip."""
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _finite_number(value: object) -> bool:
+    """Whether ``value`` is a real, finite number (not a bool, a string or an array)."""
+    return (
+        isinstance(value, int | float | np.integer | np.floating)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+    )
+
+
 def _broadcast(name: str, value: float | tuple[float, ...], n: int) -> FloatArray:
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 1 and arr.shape[0] != n:
@@ -57,6 +71,10 @@ class ConstantTorque:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "value", _per_joint("constant disturbance value", self.value))
+        if not _finite_number(self.t_start):
+            raise ValueError(
+                f"constant disturbance t_start must be a finite time (s), got {self.t_start!r}"
+            )
 
     def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
         """Disturbance samples, shape (T, n)."""
@@ -64,7 +82,7 @@ class ConstantTorque:
         return np.where((t >= self.t_start)[:, None], v[None, :], 0.0)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "constant", "value": self.value, "t_start": self.t_start}
+        return {"kind": "constant", "value": _plain(self.value), "t_start": self.t_start}
 
 
 @dataclass(frozen=True)
@@ -79,9 +97,13 @@ class SinusoidalTorque:
         object.__setattr__(
             self, "amplitude", _per_joint("sinusoidal disturbance amplitude", self.amplitude)
         )
-        if not (math.isfinite(self.frequency) and self.frequency >= 0):
+        if not (_finite_number(self.frequency) and self.frequency >= 0):
             raise ValueError(
                 f"sinusoidal disturbance frequency must be finite and >= 0 Hz, got {self.frequency!r}"
+            )
+        if not _finite_number(self.phase):
+            raise ValueError(
+                f"sinusoidal disturbance phase must be finite (rad), got {self.phase!r}"
             )
 
     def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
@@ -92,7 +114,7 @@ class SinusoidalTorque:
     def to_dict(self) -> dict[str, Any]:
         return {
             "kind": "sinusoidal",
-            "amplitude": self.amplitude,
+            "amplitude": _plain(self.amplitude),
             "frequency": self.frequency,
             "phase": self.phase,
         }
@@ -116,7 +138,7 @@ class RandomTorque:
         return rng.standard_normal((t.shape[0], n)) * s[None, :]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "random", "sigma": self.sigma}
+        return {"kind": "random", "sigma": _plain(self.sigma)}
 
 
 Disturbance = ConstantTorque | SinusoidalTorque | RandomTorque
@@ -166,6 +188,6 @@ class ModelMismatch:
     def to_dict(self) -> dict[str, Any]:
         return {
             "payload": self.payload,
-            "mass_error": self.mass_error,
-            "length_error": self.length_error,
+            "mass_error": _plain(self.mass_error),
+            "length_error": _plain(self.length_error),
         }

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -181,12 +182,18 @@ class SimResult:
         """Load a result written by :meth:`save`."""
         p = Path(path)
         try:
-            with np.load(p, allow_pickle=False) as z:
+            loaded = np.load(p, allow_pickle=False)
+            if not isinstance(loaded, np.lib.npyio.NpzFile):
+                raise ValueError("not an .npz archive")
+            with loaded as z:
                 arrays = {name: np.array(z[name]) for name in ("t", *SIGNALS)}
                 meta = json.loads(str(z["meta"]))
-        except (OSError, KeyError, ValueError) as exc:
+            params, seed = meta["params"], meta["seed"]
+            if not isinstance(params, dict) or not (seed is None or isinstance(seed, int)):
+                raise ValueError("meta must hold a params dict and an integer seed or null")
+            return cls(**arrays, params=params, seed=seed)
+        except (OSError, EOFError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as exc:
             raise ValueError(f"{p}: not a slidingarm result file ({exc})") from exc
-        return cls(**arrays, params=meta["params"], seed=meta["seed"])
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,6 +214,25 @@ class BatchResult:
     s: FloatArray
     params: list[dict[str, Any]] = field(default_factory=list)
     seeds: list[int | None] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=np.float64)
+        if t.ndim != 1:
+            raise ValueError(f"t must have shape (T,), got {t.shape}")
+        shape = None
+        for name in SIGNALS:
+            arr = np.asarray(getattr(self, name), dtype=np.float64)
+            if arr.ndim != 3 or arr.shape[1] != t.shape[0]:
+                raise ValueError(
+                    f"{name} must have shape (B, T, n) with T={t.shape[0]}, got {arr.shape}"
+                )
+            if shape is not None and arr.shape != shape:
+                raise ValueError(f"{name} has shape {arr.shape}, other signals {shape}")
+            shape = arr.shape
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        t.setflags(write=False)
+        object.__setattr__(self, "t", t)
 
     def __len__(self) -> int:
         return int(self.q.shape[0])

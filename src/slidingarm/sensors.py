@@ -180,7 +180,10 @@ class GaussianNoise:
         return rng.standard_normal(shape) * sig
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "gaussian", "sigma": self.sigma}
+        return {
+            "kind": "gaussian",
+            "sigma": list(self.sigma) if isinstance(self.sigma, tuple) else self.sigma,
+        }
 
 
 FaultKind = Literal["bias", "stuck", "dropout"]

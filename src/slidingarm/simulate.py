@@ -19,7 +19,13 @@ from numpy.typing import ArrayLike, NDArray
 from slidingarm import _engine as E
 from slidingarm._version import __version__
 from slidingarm.control.controllers import SlidingModeController
-from slidingarm.disturbances import Disturbance, disturbance_torque
+from slidingarm.disturbances import (
+    ConstantTorque,
+    Disturbance,
+    RandomTorque,
+    SinusoidalTorque,
+    disturbance_torque,
+)
 from slidingarm.models.planar import PlanarArm
 from slidingarm.results import BatchResult, SimResult
 from slidingarm.sensors import Sensor
@@ -144,7 +150,15 @@ def simulate_batch(
     sens = Sensor() if sensor is None else sensor
     if not isinstance(sens, Sensor):
         raise ValueError(f"sensor must be a Sensor, got {type(sensor).__name__}")
-    dists = tuple(disturbances)
+    kinds = (ConstantTorque, SinusoidalTorque, RandomTorque)
+    dists = (disturbances,) if isinstance(disturbances, kinds) else tuple(disturbances)
+    for d in dists:
+        if not isinstance(d, kinds):
+            raise ValueError(
+                "disturbances must be torque disturbances (ConstantTorque, SinusoidalTorque, "
+                f"RandomTorque), got {type(d).__name__}; a model mismatch belongs in the plant: "
+                "ModelMismatch(...).apply(arm)"
+            )
 
     q0a = _vectors("q0", q0, n)
     qd0a = _vectors("qd0", np.zeros(n) if qd0 is None else qd0, n)
@@ -179,7 +193,7 @@ def simulate_batch(
         tmax = np.ascontiguousarray(np.broadcast_to(tl, (n,)))[None, :].copy()
 
     # random inputs, drawn per run from its own generator in a fixed order
-    random = sens.random or any(type(d).__name__ == "RandomTorque" for d in dists)
+    random = sens.random or any(isinstance(d, RandomTorque) for d in dists)
     run_seeds = seed_list if len(seed_list) == nb else seed_list * nb
     n_rand = nb if random else 1
     meas_add = np.empty((n_rand, nt, n))

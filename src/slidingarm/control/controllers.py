@@ -353,9 +353,17 @@ class PDSMC(SlidingModeController):
         reaching: Reaching = "classic",
         k2: ArrayLike | None = None,
     ) -> None:
+        surface = LinearSurface(lam)
+        lam_a = surface.alpha
+        if isinstance(model, PlanarArm) and lam_a.ndim == 1 and lam_a.shape[0] != model.n:
+            # named here: the linear surface stores lam in the alpha row
+            raise ValueError(
+                f"lam has {lam_a.shape[0]} values but the model has {model.n} joints "
+                "(give a scalar or one value per joint)"
+            )
         super().__init__(
             model,
-            LinearSurface(lam),
+            surface,
             k=k,
             switching=switching,
             width=width,
