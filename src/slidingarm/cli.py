@@ -1,6 +1,21 @@
-"""The ``slidingarm`` command line: thin verbs that parse, validate, call the library, report."""
+"""The ``slidingarm`` command line: thin verbs that parse, validate, call the library, report.
+
+Verbs: ``reproduce`` (the whole study), ``run`` (one scenario), ``validate``, ``list``,
+``schema``; ``--version``. A user mistake (missing or invalid scenario file, unusable output
+folder) prints one line on stderr and exits with status 2; a diverging simulation or a failed
+check of the study exits with 1; an interrupt with 130. Progress bars go to stderr and only
+when stdout is a terminal.
+"""
 
 from __future__ import annotations
+
+import json
+import shlex
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any, NoReturn
 
 import typer
 
@@ -13,6 +28,15 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+
+#: Exit status of a user mistake (bad file, bad value, unusable output folder).
+EXIT_USAGE = 2
+#: Exit status of a run that diverged or a study whose checks failed.
+EXIT_FAILED = 1
+#: Exit status after Ctrl-C.
+EXIT_INTERRUPTED = 130
+#: Default results folder of ``reproduce``.
+DEFAULT_OUT = Path("slidingarm-results")
 
 
 def _version_callback(value: bool) -> None:
@@ -32,6 +56,186 @@ def _root(
     ),
 ) -> None:
     """Sliding-mode control of robot arms."""
+
+
+# --------------------------------------------------------------------------------------------
+# plumbing
+
+
+def _fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
+    typer.echo(f"error: {' '.join(str(message).split())}", err=True)
+    raise typer.Exit(code)
+
+
+def _command(*words: object) -> str:
+    """The command line as it would be typed (for the manifest and report)."""
+    return " ".join(["slidingarm", *(shlex.quote(str(w)) for w in words)])
+
+
+@contextmanager
+def _errors() -> Iterator[None]:
+    """Turn the library's errors into one line on stderr and an exit status."""
+    from slidingarm.config import ConfigError
+    from slidingarm.simulate import SimulationError
+    from slidingarm.study.output import OutputError
+
+    try:
+        yield
+    except (ConfigError, OutputError) as exc:
+        _fail(str(exc), EXIT_USAGE)
+    except SimulationError as exc:
+        _fail(str(exc), EXIT_FAILED)
+    except KeyboardInterrupt:
+        _fail("interrupted; the output folder was left as it was", EXIT_INTERRUPTED)
+
+
+@contextmanager
+def _progress() -> Iterator[Callable[[str, int, int], None] | None]:
+    """A rich progress bar on stderr when stdout is a terminal; otherwise no callback."""
+    if not sys.stdout.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    bar = Progress(
+        TextColumn("{task.description:<34}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    task = bar.add_task("starting", total=None)
+
+    def update(what: str, done: int, total: int) -> None:
+        bar.update(task, description=what, completed=done, total=total)
+
+    with bar:
+        yield update
+
+
+def _mse_table(metrics: Any) -> str:
+    mean = metrics[metrics["joint"] == "mean"]
+    wide = mean.pivot(index="scenario", columns="controller", values="mse")
+    wide = wide.loc[list(dict.fromkeys(mean["scenario"])), list(dict.fromkeys(mean["controller"]))]
+    head = f"{'MSE (rad², mean over joints)':<30}" + "".join(f"{c:>12}" for c in wide.columns)
+    lines = [head]
+    for scenario, row in wide.iterrows():
+        lines.append(f"{scenario!s:<30}" + "".join(f"{v:>12.4g}" for v in row.to_numpy()))
+    return "\n".join(lines)
+
+
+def _load(config: str) -> Any:
+    from slidingarm.study import resolve_scenario
+
+    return resolve_scenario(config)
+
+
+# --------------------------------------------------------------------------------------------
+# verbs
+
+
+@app.command()
+def reproduce(
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Results folder (created if needed).")
+    ] = DEFAULT_OUT,
+    jobs: Annotated[
+        int,
+        typer.Option(
+            "--jobs", "-j", min=0, help="Processes drawing figures (0: automatic, 1: none)."
+        ),
+    ] = 0,
+) -> None:
+    """Regenerate the study: 3 scenarios × 3 controllers, CSVs, metrics, figures, report."""
+    from slidingarm.study import reproduce as run_study
+
+    with _errors(), _progress() as progress:
+        result = run_study(
+            out,
+            progress=progress,
+            command=_command("reproduce", "--out", out, *(["--jobs", jobs] if jobs else [])),
+            jobs=jobs or None,
+        )
+    typer.echo(f"wrote {out} ({len(result.files)} files) in {result.runtime_s:.1f} s")
+    typer.echo(f"report: {out / 'report.html'}")
+    typer.echo(_mse_table(result.metrics))
+    checks = result.checks
+    failed = checks[~checks["passed"].astype(bool)]
+    typer.echo(f"checks: {len(checks) - len(failed)}/{len(checks)} passed")
+    if len(failed):
+        for _, row in failed.iterrows():
+            typer.echo(
+                f"failed check: {row['name']}: {row['value']} (threshold {row['threshold']})",
+                err=True,
+            )
+        _fail(f"{len(failed)} of {len(checks)} checks failed; see {out / 'report.md'}", EXIT_FAILED)
+
+
+@app.command()
+def run(
+    config: Annotated[
+        str, typer.Argument(help="Scenario file, or the name of a shipped scenario.")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Results folder (created if needed).")],
+    figures: Annotated[
+        bool, typer.Option("--figures/--no-figures", help="Draw the figures.")
+    ] = True,
+) -> None:
+    """Run one scenario: CSVs, metrics.csv, figures and the config used."""
+    from slidingarm.study import run as run_one
+
+    with _errors():
+        scenario = _load(config)
+        with _progress() as progress:
+            command = _command("run", config, "--out", out, *([] if figures else ["--no-figures"]))
+            result = run_one(scenario, out, progress=progress, command=command, figures=figures)
+    typer.echo(f"wrote {out} ({len(result.files)} files) in {result.runtime_s:.1f} s")
+    typer.echo(_mse_table(result.metrics))
+
+
+@app.command()
+def validate(
+    config: Annotated[
+        str, typer.Argument(help="Scenario file, or the name of a shipped scenario.")
+    ],
+) -> None:
+    """Check a scenario file: keys, types, ranges, and that it builds."""
+    with _errors():
+        scenario = _load(config)
+        setup = scenario.build()
+    n_samples = round(setup.t_final / setup.dt) + 1
+    names = ", ".join(setup.controllers)
+    typer.echo(
+        f"ok: {scenario.source or config}: scenario {setup.name!r}, {setup.nominal.n}-joint arm, "
+        f"{len(setup.controllers)} controllers ({names}), switching {scenario.switching}, "
+        f"{n_samples} samples of {setup.dt:g} s"
+    )
+
+
+@app.command(name="list")
+def list_() -> None:
+    """List controllers, laws, references, sensors, disturbances and shipped scenarios."""
+    from slidingarm.config import CONTROLLERS, choices
+    from slidingarm.study import SCENARIOS, load_shipped
+
+    typer.echo("controllers:")
+    for name, text in CONTROLLERS.items():
+        typer.echo(f"  {name:<8} {text}")
+    for section, values in choices().items():
+        typer.echo(f"{section}: {', '.join(values)}")
+    typer.echo("scenarios (shipped; run with `slidingarm run NAME --out DIR`):")
+    for name in SCENARIOS:
+        typer.echo(f"  {name:<8} {load_shipped(name).description}")
+
+
+@app.command()
+def schema() -> None:
+    """Print the JSON schema of a scenario file."""
+    from slidingarm.config import Scenario
+
+    typer.echo(json.dumps(Scenario.model_json_schema(), indent=2, ensure_ascii=False))
 
 
 def main() -> None:

@@ -1,0 +1,37 @@
+"""The paper's study (SPEC §7): shipped scenarios, running them, and regenerating everything.
+
+- :data:`SCENARIOS` — ``sign``, ``tanh``, ``noise``, shipped as TOML files in
+  ``slidingarm/study/scenarios/`` (with their common base ``paper.toml``, where the shared gains
+  and their reasons live);
+- :func:`run_scenario` — simulate every controller of a scenario;
+- :func:`run` — one scenario's results folder (CSVs, metrics, figures, config, manifest);
+- :func:`reproduce` — the whole study with its analyses and report.
+"""
+
+from slidingarm.study.analysis import PAPER_MSE
+from slidingarm.study.output import OutputError
+from slidingarm.study.reproduce import Progress, StudyOutput, reproduce, run, run_scenario
+from slidingarm.study.shipped import (
+    BASE,
+    SCENARIOS,
+    load_shipped,
+    resolve_scenario,
+    scenario_path,
+    scenarios_dir,
+)
+
+__all__ = [
+    "BASE",
+    "PAPER_MSE",
+    "SCENARIOS",
+    "OutputError",
+    "Progress",
+    "StudyOutput",
+    "load_shipped",
+    "reproduce",
+    "resolve_scenario",
+    "run",
+    "run_scenario",
+    "scenario_path",
+    "scenarios_dir",
+]

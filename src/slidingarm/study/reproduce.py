@@ -1,0 +1,447 @@
+"""Regenerate the study (SPEC §7): three scenarios × three controllers, analyses, figures, report.
+
+:func:`reproduce` writes, into one folder (see :mod:`slidingarm.study.output` for how it is
+kept consistent)::
+
+    metrics.csv                      one row per scenario × controller × joint (1..n, mean)
+    convergence.csv chattering.csv errata.csv gain_grid.csv checks.csv   the report's tables
+    <scenario>/<controller>.csv      every sample: t, q1.., qd1.., qref1.., qdref1.., qm1..,
+                                     qdm1.., tau1.., s1..
+    figures/<scenario>_<figure>.png and .svg
+    config/<scenario>.toml           the exact scenario run, resolved and self-contained
+    report.md report.html            the report (the HTML embeds its figures)
+    manifest.json                    version, seeds, command, runtime, every file's SHA-256;
+                                     written last
+
+:func:`run` does the same for one scenario, without the study's analyses and report.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import datetime as _dt
+import multiprocessing
+import os
+import platform
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slidingarm._version import __version__
+from slidingarm.config import Scenario, Setup
+from slidingarm.results import SimResult
+from slidingarm.study import analysis as A
+from slidingarm.study.output import Staging, csv_bytes
+from slidingarm.study.shipped import SCENARIOS, load_shipped
+
+__all__ = ["Progress", "StudyOutput", "reproduce", "run", "run_scenario"]
+
+#: Progress callback: ``progress(what, done, total)`` with ``done`` out of ``total`` steps.
+Progress = Callable[[str, int, int], None]
+
+#: Scenarios whose TSMC/FTSMC runs are held to SPEC §3's convergence times.
+CONVERGENCE_SCENARIOS: tuple[str, ...] = ("sign", "tanh")
+#: Scenarios the gain grid is run on.
+GRID_SCENARIOS: tuple[str, ...] = ("sign", "tanh")
+#: The scenario the errata are measured in.
+ERRATA_SCENARIO: str = "sign"
+#: The scenario with the noisy sensor.
+NOISE_SCENARIO: str = "noise"
+
+
+@dataclass(frozen=True, eq=False)
+class StudyOutput:
+    """What :func:`reproduce` or :func:`run` wrote.
+
+    Attributes
+    ----------
+    out_dir : Path
+        The results folder.
+    metrics : DataFrame
+        The metrics table (as ``metrics.csv``).
+    checks : DataFrame
+        The must-hold checks (``name, value, threshold, passed``); empty for :func:`run`.
+    runtime_s : float
+        Wall-clock time of the whole call (s).
+    files : list of Path
+        Every file written, relative to ``out_dir``.
+    """
+
+    out_dir: Path
+    metrics: pd.DataFrame
+    checks: pd.DataFrame = field(default_factory=pd.DataFrame)
+    runtime_s: float = 0.0
+    files: list[Path] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        """Whether every check passed."""
+        return bool(self.checks.empty or self.checks["passed"].all())
+
+
+def run_scenario(scenario: Scenario | Setup) -> dict[str, SimResult]:
+    """Simulate every controller of a scenario; results keyed by controller label, in order.
+
+    Raises
+    ------
+    ConfigError
+        If the scenario does not build.
+    SimulationError
+        If a run diverges.
+    """
+    setup = scenario.build() if isinstance(scenario, Scenario) else scenario
+    return A.simulate_setup(setup)
+
+
+# --------------------------------------------------------------------------------------------
+# helpers
+
+
+class _Steps:
+    """Counts steps for a progress callback."""
+
+    def __init__(self, progress: Progress | None, total: int) -> None:
+        self.progress = progress
+        self.total = total
+        self.done = 0
+
+    def __call__(self, what: str, n: int = 1) -> None:
+        self.done = min(self.done + n, self.total)
+        if self.progress is not None:
+            self.progress(what, self.done, self.total)
+
+    def start(self, what: str) -> None:
+        if self.progress is not None:
+            self.progress(what, self.done, self.total)
+
+
+def _title(setup: Setup) -> str:
+    head = setup.description.split(":", 1)[0].strip() if ":" in setup.description else ""
+    return f"{head} ({setup.name})" if head and len(head) < 40 else setup.name
+
+
+def render_figures(
+    name: str, results: Mapping[str, SimResult], title: str, fig_dir: Path
+) -> dict[str, Path]:
+    """Draw and save the figures of one scenario as ``fig_dir/<name>_<figure>.png/.svg``;
+    return figure name → PNG path. (Top-level so that a worker process can run it.)"""
+    from slidingarm.plotting import save_figure, scenario_figures
+
+    figures = scenario_figures(results, title=title)
+    paths: dict[str, Path] = {}
+    for fig_name, fig in figures.items():
+        written = save_figure(fig, fig_dir / f"{name}_{fig_name}")
+        paths[fig_name] = next(p for p in written if p.suffix == ".png")
+    return paths
+
+
+def _stage_runs(
+    staging: Staging, name: str, results: Mapping[str, SimResult], steps: _Steps
+) -> None:
+    for label, result in results.items():
+        steps.start(f"{name}: writing {label}.csv")
+        staging.write_bytes(f"{name}/{label}.csv", csv_bytes(result))
+        steps(f"{name}: wrote {label}.csv")
+
+
+def _stage_table(staging: Staging, relative: str, table: pd.DataFrame) -> None:
+    """Stage a table as CSV, floats as their shortest round-trip text."""
+    staging.write_text(relative, table.to_csv(index=False, float_format=_repr_float))
+
+
+def _repr_float(x: object) -> str:
+    return repr(float(x))  # type: ignore[arg-type]
+
+
+def _meta(
+    command: str | None, seeds: Mapping[str, int], runtime: float, jobs: int
+) -> dict[str, Any]:
+    return {
+        "version": __version__,
+        "command": command if command is not None else "slidingarm.study.reproduce()",
+        "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "seeds": dict(seeds),
+        "runtime_s": round(runtime, 3),
+        "jobs": jobs,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "pandas": pd.__version__,
+        "platform": platform.platform(),
+    }
+
+
+def _gains(scenarios: Mapping[str, Scenario]) -> dict[str, Any]:
+    """The shared gains as the files state them (plus gamma = q/p), the switching function of
+    each scenario, and under ``per_scenario`` any gain that differs between scenarios."""
+
+    def one(s: Scenario) -> dict[str, Any]:
+        g = s.gains.model_dump(exclude_none=True, exclude={"reasons"})
+        if "p" in g and "q" in g:
+            g["gamma"] = g["q"] / g["p"]
+        return g
+
+    per = {name: one(s) for name, s in scenarios.items()}
+    first = next(iter(per.values()))
+    common = {k: v for k, v in first.items() if all(g.get(k) == v for g in per.values())}
+    out: dict[str, Any] = {
+        **common,
+        "switching": {name: s.switching for name, s in scenarios.items()},
+    }
+    differing = {name: {k: v for k, v in g.items() if k not in common} for name, g in per.items()}
+    if any(differing.values()):
+        out["per_scenario"] = differing
+    return out
+
+
+def _noise(scenario: Scenario) -> dict[str, Any]:
+    sensor = scenario.sensor
+    return {
+        "scenario": scenario.key,
+        "sigma": None if sensor.noise is None else sensor.noise.sigma,
+        "velocity": sensor.velocity.model_dump(),
+        "seed": scenario.simulation.seed,
+        "reasons": sensor.reasons or "",
+    }
+
+
+def _warm_up() -> None:
+    """Import the plotting stack in a worker process ahead of its first figure."""
+    import slidingarm.plotting  # noqa: F401
+
+
+def _default_jobs() -> int:
+    return max(1, min(3, os.cpu_count() or 1))
+
+
+# --------------------------------------------------------------------------------------------
+# one scenario
+
+
+def run(
+    scenario: Scenario,
+    out_dir: str | os.PathLike[str],
+    *,
+    progress: Progress | None = None,
+    command: str | None = None,
+    figures: bool = True,
+) -> StudyOutput:
+    """Run one scenario and write its results folder.
+
+    Writes ``<name>/<controller>.csv``, ``metrics.csv``, ``figures/<name>_<figure>.png/.svg``,
+    ``config/<name>.toml`` and ``manifest.json`` (last) into ``out_dir``, through a staging
+    folder (nothing is left behind on failure).
+
+    Raises
+    ------
+    OutputError
+        If ``out_dir`` is a file or cannot be written (before any simulation).
+    ConfigError, SimulationError
+        If the scenario does not build or a run diverges.
+    """
+    t0 = time.perf_counter()
+    staging = Staging(out_dir)
+    try:
+        setup = scenario.build()
+        name = setup.name
+        n_ctrl = len(setup.controllers)
+        steps = _Steps(progress, 2 * n_ctrl + (7 if figures else 0) + 2)
+        results: dict[str, SimResult] = {}
+        for label in setup.controllers:
+            steps.start(f"{name}: simulating {label}")
+            results.update(A.simulate_setup(_only(setup, label)))
+            steps(f"{name}: simulated {label}")
+        _stage_runs(staging, name, results, steps)
+        metrics = A.metrics_table({name: results})
+        _stage_table(staging, "metrics.csv", metrics)
+        staging.write_text(f"config/{name}.toml", scenario.to_toml())
+        steps("metrics and config")
+        if figures:
+            steps.start(f"{name}: figures")
+            render_figures(name, results, _title(setup), staging.path / "figures")
+            steps(f"{name}: figures", 7)
+        runtime = time.perf_counter() - t0
+        staging.write_manifest(
+            {
+                **_meta(command, {name: setup.seed}, runtime, 1),
+                "scenarios": [name],
+            }
+        )
+        files = [p for p in staging.files()]
+        staging.publish()
+        steps("done")
+    except BaseException:
+        staging.discard()
+        raise
+    return StudyOutput(Path(out_dir), metrics, runtime_s=time.perf_counter() - t0, files=files)
+
+
+def _only(setup: Setup, label: str) -> Setup:
+    from dataclasses import replace
+
+    return replace(setup, controllers={label: setup.controllers[label]})
+
+
+# --------------------------------------------------------------------------------------------
+# the study
+
+
+def reproduce(
+    out_dir: str | os.PathLike[str] = "slidingarm-results",
+    *,
+    progress: Progress | None = None,
+    command: str | None = None,
+    jobs: int | None = None,
+) -> StudyOutput:
+    """Regenerate the whole study into ``out_dir`` (layout in the module docstring).
+
+    Parameters
+    ----------
+    out_dir : path
+        The results folder; created if needed. Existing files of the same names are replaced;
+        ``manifest.json``, written last, lists the files of this run.
+    progress : callable, optional
+        ``progress(what, done, total)``, called as the work advances.
+    command : str, optional
+        The command line to record in the manifest and report.
+    jobs : int, optional
+        Processes drawing the figures while the main process computes (default: up to 3,
+        bounded by the CPU count); 1 draws them in this process.
+
+    Raises
+    ------
+    OutputError
+        If ``out_dir`` is a file or cannot be written (before any work).
+    """
+    t0 = time.perf_counter()
+    jobs = _default_jobs() if jobs is None else max(1, int(jobs))
+    staging = Staging(out_dir)
+    pool: cf.ProcessPoolExecutor | None = None
+    try:
+        scenarios = {name: load_shipped(name) for name in SCENARIOS}
+        setups = {name: s.build() for name, s in scenarios.items()}
+        n_runs = sum(len(s.controllers) for s in setups.values())
+        total = n_runs * 2 + 7 * len(setups) + 2 + len(GRID_SCENARIOS) + 3
+        steps = _Steps(progress, total)
+
+        # figures are drawn in worker processes while this one computes; the workers start
+        # (and import matplotlib) while the scenarios are simulated
+        workers = min(jobs, len(setups)) if jobs > 1 else 0
+        if workers:
+            pool = cf.ProcessPoolExecutor(
+                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+            )
+            for _ in range(workers):
+                pool.submit(_warm_up)
+
+        results: dict[str, dict[str, SimResult]] = {}
+        for name, setup in setups.items():
+            steps.start(f"{name}: simulating")
+            results[name] = A.simulate_setup(setup)
+            steps(f"{name}: simulated", len(setup.controllers))
+
+        fig_dir = staging.path / "figures"
+        fig_dir.mkdir(parents=True, exist_ok=True)
+        futures: dict[str, cf.Future[dict[str, Path]]] = {}
+        if pool is not None:
+            for name, setup in setups.items():
+                futures[name] = pool.submit(
+                    render_figures, name, results[name], _title(setup), fig_dir
+                )
+
+        for name in setups:
+            _stage_runs(staging, name, results[name], steps)
+        metrics = A.metrics_table(results)
+        _stage_table(staging, "metrics.csv", metrics)
+        steps("metrics")
+
+        steps.start("convergence against SPEC §3")
+        convergence = A.convergence_table(results, setups, CONVERGENCE_SCENARIOS)
+        chattering = A.chattering_table(metrics)
+        steps("convergence and chattering")
+        steps.start("errata")
+        errata = A.errata_table(scenarios[ERRATA_SCENARIO])
+        steps("errata")
+        grids = []
+        for name in GRID_SCENARIOS:
+            steps.start(f"{name}: gain grid")
+            grids.append(A.gain_grid(scenarios[name]))
+            steps(f"{name}: gain grid")
+        grid = pd.concat(grids, ignore_index=True)
+        checks = A.checks_table(
+            metrics,
+            results,
+            chattering=chattering,
+            convergence=convergence,
+            setups=setups,
+            noisy=(NOISE_SCENARIO,),
+        )
+        for relative, table in (
+            ("convergence.csv", convergence),
+            ("chattering.csv", chattering),
+            ("errata.csv", errata),
+            ("gain_grid.csv", grid),
+            ("checks.csv", checks),
+        ):
+            _stage_table(staging, relative, table)
+        for name, scenario in scenarios.items():
+            staging.write_text(f"config/{name}.toml", scenario.to_toml())
+
+        figure_paths: dict[str, dict[str, Path]] = {}
+        for name, setup in setups.items():
+            if name in futures:
+                steps.start(f"{name}: figures")
+                paths = futures[name].result()
+            else:
+                steps.start(f"{name}: figures")
+                paths = render_figures(name, results[name], _title(setup), fig_dir)
+            figure_paths[name] = {k: p.relative_to(staging.path) for k, p in paths.items()}
+            steps(f"{name}: figures", 7)
+        if pool is not None:
+            pool.shutdown()
+            pool = None
+
+        from slidingarm.report import ReportContext, write_report
+
+        seeds = {name: setup.seed for name, setup in setups.items()}
+        meta = _meta(command, seeds, time.perf_counter() - t0, jobs)
+        context = ReportContext(
+            metrics=metrics,
+            paper_mse=dict(A.PAPER_MSE),
+            gains=_gains(scenarios),
+            gain_reasons=scenarios[SCENARIOS[0]].gains.reasons or "",
+            noise=_noise(scenarios[NOISE_SCENARIO]),
+            convergence=convergence,
+            chattering=chattering,
+            errata=errata,
+            grid=grid,
+            checks=checks,
+            figures=figure_paths,
+            meta=meta,
+        )
+        steps.start("report")
+        write_report(staging.path, context)
+        steps("report")
+        runtime = time.perf_counter() - t0
+        staging.write_manifest(
+            {
+                **_meta(command, seeds, runtime, jobs),
+                "scenarios": list(setups),
+                "checks_passed": bool(checks["passed"].all()),
+            }
+        )
+        files = staging.files()
+        staging.publish()
+        steps("done")
+    except BaseException:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+        staging.discard()
+        raise
+    return StudyOutput(
+        Path(out_dir), metrics, checks, runtime_s=time.perf_counter() - t0, files=files
+    )
