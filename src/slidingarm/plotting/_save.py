@@ -1,0 +1,66 @@
+"""Saving figures: PNG and SVG side by side, written atomically, SVG byte-identical on rerun."""
+
+from __future__ import annotations
+
+import io
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import matplotlib
+from matplotlib.figure import Figure
+
+from slidingarm.plotting._style import RC
+
+__all__ = ["PNG_DPI", "save_figure"]
+
+#: Resolution of the PNG files: sharp on screen and in the HTML report, quick to render.
+PNG_DPI = 150
+
+
+def _atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; figures are for everyone to read
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
+    """Write ``fig`` to ``<stem>.png`` and ``<stem>.svg``, then close it.
+
+    Each file is rendered in memory and written through a temporary file and
+    :func:`os.replace`, so a reader never sees a partial file and an interrupted save leaves
+    none. The SVG carries no date and uses a fixed ``svg.hashsalt``, so saving the same figure
+    twice gives identical bytes. ``stem`` is the path without extension (its own dots are kept:
+    ``fig.v1`` gives ``fig.v1.png``). After saving, the figure is cleared (and closed in pyplot
+    if pyplot manages it) to free its memory.
+
+    Returns
+    -------
+    list of Path
+        ``[<stem>.png, <stem>.svg]``.
+    """
+    stem = Path(stem)
+    png = stem.parent / f"{stem.name}.png"
+    svg = stem.parent / f"{stem.name}.svg"
+    with matplotlib.rc_context(RC):
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=PNG_DPI, metadata={"Software": None})
+        png_bytes = buf.getvalue()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="svg", metadata={"Date": None})
+        svg_bytes = buf.getvalue()
+    _atomic_write_bytes(png, png_bytes)
+    _atomic_write_bytes(svg, svg_bytes)
+    if "matplotlib.pyplot" in sys.modules:
+        sys.modules["matplotlib.pyplot"].close(fig)
+    fig.clear()
+    return [png, svg]

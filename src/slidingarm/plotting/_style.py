@@ -1,0 +1,270 @@
+"""Shared look of every slidingarm figure: controller styles, rc settings, axes, decimation.
+
+One controller keeps one colour and one line style in every figure, chosen so the three
+controllers of the paper read apart in colour (Okabe–Ito palette, safe for colour-blind readers)
+and in grey scale (different lightness and dash). The reference is always dashed black.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.ticker import LogFormatter
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
+
+__all__ = [
+    "RC",
+    "REFERENCE_STYLE",
+    "LineStyle",
+    "PowerOfTenFormatter",
+    "band_limits",
+    "controller_style",
+    "envelope",
+    "frame",
+    "panels",
+    "pow10_text",
+    "smooth",
+    "subscript",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LineStyle:
+    """How one controller (or the reference) is drawn."""
+
+    label: str
+    color: str
+    linestyle: Any
+    linewidth: float
+
+    def kwargs(self) -> dict[str, Any]:
+        """Keyword arguments for :meth:`matplotlib.axes.Axes.plot`."""
+        return {
+            "label": self.label,
+            "color": self.color,
+            "linestyle": self.linestyle,
+            "linewidth": self.linewidth,
+        }
+
+
+#: The paper's controllers and the extra ones of the package, by controller name. Lightness
+#: differs (blue dark, vermillion middle, orange light) so the lines also read in grey scale.
+_KNOWN: dict[str, LineStyle] = {
+    "pdsmc": LineStyle("PDSMC", "#E69F00", (0, (1.2, 1.2)), 1.9),
+    "tsmc": LineStyle("TSMC", "#D55E00", (0, (6.0, 1.6, 1.6, 1.6)), 1.5),
+    "ftsmc": LineStyle("FTSMC", "#0072B2", "solid", 1.5),
+    "ntsmc": LineStyle("NTSMC", "#CC79A7", (0, (3.5, 1.5)), 1.5),
+}
+
+#: Styles handed out, in order, to controllers not in the table above.
+_EXTRA: tuple[tuple[str, Any], ...] = (
+    ("#009E73", (0, (4.0, 1.5, 1.0, 1.5, 1.0, 1.5))),
+    ("#56B4E9", (0, (2.5, 1.0))),
+    ("#7F7F7F", (0, (8.0, 2.0))),
+    ("#882255", (0, (1.0, 2.0))),
+)
+
+#: The reference trajectory: dashed black, thin, drawn over the controllers.
+REFERENCE_STYLE = LineStyle("reference", "black", (0, (4.0, 2.5)), 1.0)
+
+#: rc settings of every figure (creation and saving). ``svg.hashsalt`` makes the SVG ids, and
+#: so the files, identical from one run to the next.
+RC: dict[RcKeyType, Any] = {
+    "font.size": 10.0,
+    "axes.labelsize": 10.0,
+    "axes.titlesize": 10.5,
+    "figure.titlesize": 12.0,
+    "legend.fontsize": 9.5,
+    "xtick.labelsize": 9.0,
+    "ytick.labelsize": 9.0,
+    "axes.grid": True,
+    "grid.linewidth": 0.5,
+    "grid.alpha": 0.35,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.xmargin": 0.0,
+    "lines.linewidth": 1.4,
+    "path.simplify": True,
+    "agg.path.chunksize": 20000,
+    "svg.hashsalt": "slidingarm",
+    "svg.fonttype": "path",
+    "savefig.dpi": 150,
+}
+
+
+def controller_style(name: str, index: int = 0) -> LineStyle:
+    """The style of controller ``name``; unknown names get an extra style chosen by ``index``.
+
+    Known names (``pdsmc``, ``tsmc``, ``ftsmc``, ``ntsmc``, any case) always get the same
+    style, whatever their position; others are labelled with their name in upper case.
+    """
+    key = name.lower()
+    if key in _KNOWN:
+        return _KNOWN[key]
+    color, dash = _EXTRA[index % len(_EXTRA)]
+    return LineStyle(name.upper(), color, dash, 1.5)
+
+
+#: Fixed margins of the figures made here, in inches: a manual layout is as tidy as a layout
+#: engine for these regular stacks of panels and saves its extra drawing pass on every save.
+_LEFT, _RIGHT, _BOTTOM, _GAP = 0.95, 0.18, 0.55, 0.14
+_TITLE_H, _LEGEND_H = 0.34, 0.30
+
+
+def panels(
+    ax: Axes | Sequence[Axes] | None, count: int, *, height: float | None = None
+) -> tuple[Figure, list[Axes], bool]:
+    """Axes for ``count`` stacked panels sharing the time axis.
+
+    With ``ax=None`` a new :class:`~matplotlib.figure.Figure` (no pyplot, fixed margins that
+    leave room at the top for a title and a one-row legend, see :func:`frame`) is made;
+    otherwise ``ax`` must be one Axes (``count == 1``) or ``count`` Axes. Returns the figure,
+    the axes and whether the figure is ours.
+    """
+    if ax is None:
+        if height is None:
+            height = 1.6 + 1.75 * count if count <= 3 else 1.6 + 1.4 * count
+        width = 7.0
+        fig = Figure(figsize=(width, height))
+        fig.subplots_adjust(
+            left=_LEFT / width,
+            right=1.0 - _RIGHT / width,
+            bottom=_BOTTOM / height,
+            top=1.0 - (_TITLE_H + _LEGEND_H) / height,
+            hspace=_GAP * count / (height - _BOTTOM - _TITLE_H - _LEGEND_H - _GAP * (count - 1)),
+        )
+        grid = fig.subplots(count, 1, sharex=True, squeeze=False)
+        return fig, [grid[i, 0] for i in range(count)], True
+    axes = [ax] if isinstance(ax, Axes) else list(ax)
+    if len(axes) != count or not all(isinstance(a, Axes) for a in axes):
+        raise ValueError(
+            f"ax must be one Axes per panel: this plot has {count} panel(s) (one per joint), "
+            f"got {len(axes)}; pass joints=[j] to draw a single joint on one Axes"
+        )
+    root = axes[0].figure
+    while not isinstance(root, Figure):  # a SubFigure: its root Figure is what is returned
+        root = root.figure
+    return root, axes, False
+
+
+def frame(fig: Figure, axes: list[Axes], own: bool, title: str | None) -> None:
+    """Title and legend: on a figure of :func:`panels`, the title on top and one legend row
+    under it; on the caller's axes, the title and legend of the first axes."""
+    handles, labels = axes[0].get_legend_handles_labels()
+    if own:
+        height = fig.get_figheight()
+        if title:
+            fig.suptitle(title, y=1.0 - 0.1 / height, va="top")
+        if handles:
+            fig.legend(
+                handles,
+                labels,
+                loc="lower center",
+                bbox_to_anchor=(0.5, 1.0 - (_TITLE_H + _LEGEND_H) / height),
+                ncols=min(len(handles), 5),
+                frameon=False,
+                handlelength=3.2,
+                borderaxespad=0.1,
+            )
+    else:
+        if title:
+            axes[0].set_title(title)
+        if handles:
+            axes[0].legend(handles, labels, loc="upper right", handlelength=3.2, framealpha=0.85)
+
+
+def envelope(t: FloatArray, y: FloatArray, max_points: int) -> tuple[FloatArray, FloatArray]:
+    """Decimate ``y(t)`` to about ``max_points`` samples keeping each bucket's extremes.
+
+    The samples are cut into buckets of ``b`` consecutive samples and each bucket keeps its
+    minimum and its maximum, in time order (the min–max, or envelope, decimation): at a bucket
+    width below a pixel the drawn line is the same as the full one, chattering included, while
+    files stay small and rendering fast. The first and last samples are always kept.
+    """
+    size = t.shape[0]
+    if size <= max_points or max_points < 4:
+        return t, y
+    b = math.ceil(size / (max_points // 2))
+    m = (size // b) * b
+    blocks = y[:m].reshape(-1, b)
+    base = np.arange(blocks.shape[0]) * b
+    picks = np.stack([base + np.argmin(blocks, axis=1), base + np.argmax(blocks, axis=1)], axis=1)
+    idx = np.unique(np.concatenate([[0], picks.ravel(), np.arange(m, size), [size - 1]]))
+    return t[idx], y[idx]
+
+
+def smooth(y: FloatArray, width: int) -> FloatArray:
+    """Centred moving mean of ``y`` over ``width`` samples; near the ends the window shrinks to
+    the samples there are (so the ends are neither pulled towards 0 nor towards the end value)."""
+    size = y.shape[0]
+    if width <= 1 or size < 2:
+        return y
+    lo, hi = width // 2, width - 1 - width // 2
+    csum = np.concatenate([[0.0], np.cumsum(y)])
+    idx = np.arange(size)
+    start = np.maximum(idx - lo, 0)
+    stop = np.minimum(idx + hi + 1, size)
+    return np.asarray((csum[stop] - csum[start]) / (stop - start), dtype=np.float64)
+
+
+def band_limits(
+    t: FloatArray, y: FloatArray, buckets: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Per-bucket time, minimum and maximum of ``y(t)`` for drawing its band as one filled
+    polygon (much cheaper to render than the zig-zag of every sample, and the same picture
+    when a bucket is narrower than a pixel). Each bucket spans ``ceil(T / buckets)`` samples and
+    is placed at its first and last time, so the band covers the whole run."""
+    size = t.shape[0]
+    b = max(1, math.ceil(size / max(buckets, 1)))
+    edges = np.arange(0, size, b)
+    lo = np.minimum.reduceat(y, edges)
+    hi = np.maximum.reduceat(y, edges)
+    last = np.minimum(edges + b, size) - 1
+    tb = np.stack([t[edges], t[last]], axis=1).ravel()
+    return tb, np.repeat(lo, 2), np.repeat(hi, 2)
+
+
+_SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
+_SUP = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def subscript(j: int) -> str:
+    """``12`` → ``"₁₂"``: joint numbers in axis labels without mathtext (which costs a parse
+    per label and per output format, the largest share of a figure's save time)."""
+    return str(j).translate(_SUB)
+
+
+def pow10_text(x: float) -> str:
+    """``1e-3`` → ``"10⁻³"``, ``-2e-4`` → ``"−2×10⁻⁴"``, ``0`` → ``"0"``: plain Unicode."""
+    if x == 0.0 or not math.isfinite(x):
+        return "0" if x == 0.0 else str(x)
+    sign = "\u2212" if x < 0 else ""
+    exp = math.floor(math.log10(abs(x)) + 1e-9)
+    mant = abs(x) / 10.0**exp
+    power = "10" + str(exp).translate(_SUP)
+    if abs(mant - 1.0) < 1e-6:
+        return sign + power
+    return f"{sign}{mant:.3g}×{power}"
+
+
+class PowerOfTenFormatter(LogFormatter):
+    """Log and symlog tick labels as ``10⁻³`` in plain Unicode: the same choice of labelled
+    ticks as matplotlib's :class:`~matplotlib.ticker.LogFormatter`, without mathtext."""
+
+    def __call__(self, x: float, pos: int | None = None) -> str:
+        if x == 0.0:
+            return "0"
+        if not super().__call__(x, pos):
+            return ""
+        return pow10_text(float(x))

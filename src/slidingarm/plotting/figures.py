@@ -1,0 +1,450 @@
+"""The study's figures (SPEC §7, paper Figs. 3–22): one function per signal, any number of joints.
+
+Every ``plot_*`` function takes the runs to compare as a mapping ``{controller name: SimResult}``
+(drawn in the mapping's order, each controller in its own fixed style), draws one panel per
+joint stacked over a shared time axis, and returns the :class:`~matplotlib.figure.Figure`. With
+``ax=None`` it makes a new figure without pyplot (so it needs no GUI backend and leaves no
+global state); otherwise it draws into ``ax`` — one Axes per joint drawn, or a single Axes with
+``joints=[j]``. Nothing is shown or saved here: see :func:`slidingarm.plotting.save_figure`.
+
+Joints are numbered from 1, as in the paper (``joints=[1]`` is the first joint).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Literal
+
+import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.ticker import NullLocator
+from numpy.typing import NDArray
+
+from slidingarm.metrics import DEFAULT_WINDOW
+from slidingarm.plotting._style import (
+    RC,
+    REFERENCE_STYLE,
+    LineStyle,
+    PowerOfTenFormatter,
+    band_limits,
+    controller_style,
+    envelope,
+    frame,
+    panels,
+    pow10_text,
+    smooth,
+    subscript,
+)
+from slidingarm.results import SimResult
+
+__all__ = [
+    "FIGURES",
+    "plot_error",
+    "plot_sliding",
+    "plot_steady_state",
+    "plot_torque",
+    "plot_tracking",
+    "plot_velocity",
+    "scenario_figures",
+]
+
+FloatArray = NDArray[np.float64]
+Results = Mapping[str, SimResult]
+AxesArg = Axes | Sequence[Axes] | None
+
+#: The figures of one scenario, in report order (keys of :func:`scenario_figures`).
+FIGURES: tuple[str, ...] = (
+    "tracking_all",
+    "tracking_joint1",
+    "torque",
+    "sliding",
+    "velocity",
+    "error",
+    "steady_state",
+)
+
+#: Samples kept per line by default (min–max decimation, see ``envelope``): two per pixel
+#: column of a 7-inch figure at 150 dpi, so the drawing equals the full-resolution one.
+MAX_POINTS = 2400
+
+_TIME_LABEL = "time t (s)"
+_SINGLE_JOINT_HEIGHT = 3.6
+
+#: Width (s) of the moving mean drawn over a chattering signal (see ``_draw``): 10 samples at
+#: the paper's 0.5 ms, which averages out switching at the sample rate but is short against
+#: the arm's motion (reaching times of order 0.1 s).
+SMOOTH_SECONDS = 5e-3
+
+
+# ---------------------------------------------------------------------------- helpers
+def _items(results: Results) -> tuple[list[tuple[str, SimResult]], int]:
+    """The runs in order and their common number of joints."""
+    items = list(results.items())
+    if not items:
+        raise ValueError("results is empty: pass at least one {controller name: SimResult}")
+    n = items[0][1].n
+    for name, res in items:
+        if res.n != n:
+            raise ValueError(
+                f"results must all have the same number of joints: {items[0][0]!r} has {n}, "
+                f"{name!r} has {res.n}"
+            )
+    return items, n
+
+
+def _joints(joints: Sequence[int] | None, n: int) -> list[int]:
+    """Joint numbers (1-based) to draw, checked against ``n``."""
+    if joints is None:
+        return list(range(1, n + 1))
+    chosen = [int(j) for j in joints]
+    if not chosen or any(j < 1 or j > n for j in chosen):
+        raise ValueError(f"joints must be joint numbers in 1..{n} (1-based), got {list(joints)}")
+    return chosen
+
+
+def _window_mask(t: FloatArray, window: float | None) -> slice | NDArray[np.bool_]:
+    if window is None:
+        return slice(None)
+    return t >= t[-1] - window - 1e-9 * max(1.0, abs(float(t[-1])))
+
+
+def _symlog_threshold(series: list[FloatArray]) -> float:
+    """Linear half-width of a symlog axis: the level ``|s|`` keeps in the second half of the
+    run (90th percentile, the largest over the controllers), rounded down to a power of ten and
+    at least ``1e-4`` of the peak, so both the reaching phase and the band around 0 show."""
+    peak = max(float(np.max(np.abs(y))) for y in series)
+    tail = max(float(np.percentile(np.abs(y[y.shape[0] // 2 :]), 90)) for y in series)
+    level = max(tail, 1e-4 * peak, 1e-300)
+    return float(10.0 ** np.floor(np.log10(level)))
+
+
+def _draw(
+    a: Axes,
+    t: FloatArray,
+    y: FloatArray,
+    style: LineStyle,
+    *,
+    zorder: float,
+    max_points: int,
+    band: bool,
+) -> None:
+    """One controller's line. With ``band=True`` a chattering signal — one whose total
+    variation is more than twice that of its :data:`SMOOTH_SECONDS` moving mean — is drawn as
+    the translucent band its samples fill (per-bucket min to max) under its moving mean in the
+    controller's style, so that overlapping bands of several controllers stay readable."""
+    if band and t.shape[0] > 2 and np.all(np.isfinite(y)):
+        dt = float(t[1] - t[0])
+        width = max(1, round(SMOOTH_SECONDS / dt)) if dt > 0 else 1
+        mean = smooth(y, width)
+        tv_raw = float(np.sum(np.abs(np.diff(y))))
+        tv_mean = float(np.sum(np.abs(np.diff(mean))))
+        if width > 1 and tv_raw > 2.0 * tv_mean + 1e-300:
+            tb, lo, hi = band_limits(t, y, max_points // 2)
+            a.fill_between(tb, lo, hi, color=style.color, alpha=0.3, linewidth=0, zorder=zorder - 1)
+            tt, yy = envelope(t, mean, max_points)
+            a.plot(tt, yy, zorder=zorder, **style.kwargs())
+            return
+    tt, yy = envelope(t, y, max_points)
+    a.plot(tt, yy, zorder=zorder, **style.kwargs())
+
+
+def _joint_plot(
+    results: Results,
+    *,
+    ax: AxesArg,
+    joints: Sequence[int] | None,
+    title: str | None,
+    signal: Callable[[SimResult], FloatArray],
+    ylabel: Callable[[int], str],
+    reference: Callable[[SimResult], FloatArray] | None = None,
+    window: float | None = None,
+    yscale: Literal["linear", "log", "symlog"] = "linear",
+    zero_line: bool = False,
+    band: bool = True,
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Draw ``signal`` (shape (T, n)) of every run, one panel per joint."""
+    items, n = _items(results)
+    chosen = _joints(joints, n)
+    with matplotlib.rc_context(RC):
+        height = _SINGLE_JOINT_HEIGHT if len(chosen) == 1 else None
+        fig, axes, own = panels(ax, len(chosen), height=height)
+        data = [(name, res, signal(res)) for name, res in items]
+        for a, j in zip(axes, chosen, strict=True):
+            col = j - 1
+            columns: list[FloatArray] = []
+            t_lo, t_hi = np.inf, -np.inf
+            for idx, (name, res, y_all) in enumerate(data):
+                mask = _window_mask(res.t, window)
+                t = res.t[mask]
+                y = np.array(y_all[mask, col], dtype=np.float64)
+                if yscale == "log":
+                    y = np.abs(y)
+                    y[y == 0.0] = np.nan
+                columns.append(y)
+                _draw(
+                    a,
+                    t,
+                    y,
+                    controller_style(name, idx),
+                    zorder=3 + 0.1 * idx,
+                    max_points=max_points,
+                    band=band and yscale != "log",
+                )
+                t_lo, t_hi = min(t_lo, float(t[0])), max(t_hi, float(t[-1]))
+            if reference is not None:
+                res0 = items[0][1]
+                mask = _window_mask(res0.t, window)
+                tt, yy = envelope(res0.t[mask], reference(res0)[mask, col], max_points)
+                a.plot(tt, yy, zorder=4, **REFERENCE_STYLE.kwargs())
+            if zero_line:
+                a.axhline(0.0, color="0.45", linewidth=0.6, zorder=1)
+            if yscale == "symlog":
+                finite = [c[np.isfinite(c)] for c in columns if np.any(np.isfinite(c))]
+                if finite and max(float(np.max(np.abs(c))) for c in finite) > 0.0:
+                    thr = _symlog_threshold(finite)
+                    a.set_yscale("symlog", linthresh=thr, linscale=0.6)
+                    a.yaxis.set_major_formatter(PowerOfTenFormatter(linthresh=thr))
+                    a.text(
+                        0.995,
+                        0.97,
+                        f"symlog axis, linear for |s| < {pow10_text(thr)} rad/s",
+                        transform=a.transAxes,
+                        ha="right",
+                        va="top",
+                        fontsize=7.5,
+                        color="0.35",
+                    )
+            elif yscale == "log" and any(np.any(np.isfinite(c)) for c in columns):
+                a.set_yscale("log")
+                a.yaxis.set_major_formatter(PowerOfTenFormatter())
+                a.yaxis.set_minor_formatter(PowerOfTenFormatter(labelOnlyBase=False))
+                shown = np.concatenate([c[np.isfinite(c)] for c in columns])
+                if np.log10(float(shown.max()) / float(shown.min())) >= 3.0:
+                    # decades read well alone over a wide range, and the 8 minor ticks per
+                    # decade would cost about a third of the figure's drawing time
+                    a.yaxis.set_minor_locator(NullLocator())
+            if t_hi > t_lo:
+                a.set_xlim(t_lo, t_hi)
+            a.set_ylabel(ylabel(j))
+            a.grid(True, which="major")
+        axes[-1].set_xlabel(_TIME_LABEL)
+        frame(fig, axes, own, title)
+    return fig
+
+
+# ---------------------------------------------------------------------------- plot functions
+def plot_tracking(
+    results: Results,
+    *,
+    ax: AxesArg = None,
+    joints: Sequence[int] | None = None,
+    measured: bool = False,
+    title: str | None = "Joint position tracking",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Joint angles :math:`q_i(t)` of every run against the reference :math:`q_{d,i}(t)`.
+
+    Parameters
+    ----------
+    results : Mapping[str, SimResult]
+        Runs keyed by controller name, drawn in this order.
+    ax : Axes, sequence of Axes or None
+        Where to draw: one Axes per joint drawn (a single Axes with ``joints=[j]``); ``None``
+        makes a new figure.
+    joints : sequence of int, optional
+        Joint numbers, 1-based (default all).
+    measured : bool
+        Draw the measured angle :math:`\\tilde q` (with noise) instead of the true one.
+    title : str or None
+        Figure title (the first panel's title when drawing into ``ax``).
+    max_points : int
+        Samples kept per line (min–max decimation keeps every extreme).
+    """
+    sym = "q\u0303" if measured else "q"
+    return _joint_plot(
+        results,
+        ax=ax,
+        joints=joints,
+        title=title,
+        signal=(lambda r: r.q_meas) if measured else (lambda r: r.q),
+        reference=lambda r: r.q_ref,
+        ylabel=lambda j: f"{sym}{subscript(j)} (rad)",
+        max_points=max_points,
+    )
+
+
+def plot_velocity(
+    results: Results,
+    *,
+    ax: AxesArg = None,
+    joints: Sequence[int] | None = None,
+    measured: bool = False,
+    title: str | None = "Joint velocity",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Joint velocities :math:`\\dot q_i(t)` against the reference :math:`\\dot q_{d,i}(t)`.
+
+    ``measured=True`` draws the velocity the controller used (its estimate from the noisy
+    angle) instead of the true one. Other parameters as :func:`plot_tracking`.
+    """
+    sym = "measured q\u0307" if measured else "q\u0307"
+    return _joint_plot(
+        results,
+        ax=ax,
+        joints=joints,
+        title=title,
+        signal=(lambda r: r.qd_meas) if measured else (lambda r: r.qd),
+        reference=lambda r: r.qd_ref,
+        ylabel=lambda j: f"{sym}{subscript(j)} (rad/s)",
+        max_points=max_points,
+    )
+
+
+def plot_torque(
+    results: Results,
+    *,
+    ax: AxesArg = None,
+    joints: Sequence[int] | None = None,
+    title: str | None = "Control torque",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Applied joint torques :math:`\\tau_i(t)` (zero-order hold samples), one panel per joint.
+
+    Parameters as :func:`plot_tracking`. Sign switching shows as a band (chattering): the
+    min–max decimation keeps its full width.
+    """
+    return _joint_plot(
+        results,
+        ax=ax,
+        joints=joints,
+        title=title,
+        signal=lambda r: r.tau,
+        ylabel=lambda j: f"τ{subscript(j)} (N·m)",
+        max_points=max_points,
+    )
+
+
+def plot_sliding(
+    results: Results,
+    *,
+    ax: AxesArg = None,
+    joints: Sequence[int] | None = None,
+    scale: Literal["symlog", "linear"] = "symlog",
+    title: str | None = "Sliding variable",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Sliding variables :math:`s_i(t)` as the controllers computed them.
+
+    ``s`` starts of order 1 and then stays in a band around 0 (of width about
+    :math:`k\\,\\Delta t` under sign switching), so the default ``scale="symlog"`` shows the
+    reaching phase on log decades and the band on a linear stretch around 0, whose half-width
+    is written in each panel. Other parameters as :func:`plot_tracking`.
+    """
+    if scale not in ("symlog", "linear"):
+        raise ValueError(f"scale must be 'symlog' or 'linear', got {scale!r}")
+    return _joint_plot(
+        results,
+        ax=ax,
+        joints=joints,
+        title=title,
+        signal=lambda r: r.s,
+        ylabel=lambda j: f"s{subscript(j)} (rad/s)",
+        yscale=scale,
+        zero_line=True,
+        max_points=max_points,
+    )
+
+
+def plot_error(
+    results: Results,
+    *,
+    ax: AxesArg = None,
+    joints: Sequence[int] | None = None,
+    title: str | None = "Tracking error",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Tracking errors :math:`e_i = q_i - q_{d,i}` (true angle), one panel per joint.
+
+    Parameters as :func:`plot_tracking`.
+    """
+    return _joint_plot(
+        results,
+        ax=ax,
+        joints=joints,
+        title=title,
+        signal=lambda r: r.e,
+        ylabel=lambda j: f"e{subscript(j)} (rad)",
+        zero_line=True,
+        max_points=max_points,
+    )
+
+
+def plot_steady_state(
+    results: Results,
+    *,
+    ax: AxesArg = None,
+    joints: Sequence[int] | None = None,
+    window: float = DEFAULT_WINDOW,
+    log: bool = True,
+    title: str | None = "Steady-state tracking error",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """The tracking error over the last ``window`` seconds (default 0.5 s, as SPEC §6).
+
+    With ``log=True`` (default) it draws :math:`|e_i|` on a log axis, where final errors of
+    1e-8 to 1e-3 rad all read (exact zeros are left out); ``log=False`` draws :math:`e_i`.
+    Other parameters as :func:`plot_tracking`.
+    """
+    if not window > 0.0:
+        raise ValueError(f"window must be > 0 s, got {window}")
+    return _joint_plot(
+        results,
+        ax=ax,
+        joints=joints,
+        title=title,
+        signal=lambda r: r.e,
+        ylabel=(lambda j: f"|e{subscript(j)}| (rad)")
+        if log
+        else (lambda j: f"e{subscript(j)} (rad)"),
+        window=window,
+        yscale="log" if log else "linear",
+        zero_line=not log,
+        band=False,
+        max_points=max_points,
+    )
+
+
+# ---------------------------------------------------------------------------- one scenario
+def scenario_figures(results: Results, *, title: str) -> dict[str, Figure]:
+    """Every figure of one scenario (SPEC §7), keyed by :data:`FIGURES`, in that order.
+
+    Parameters
+    ----------
+    results : Mapping[str, SimResult]
+        The scenario's runs keyed by controller name (``"pdsmc"``, ``"tsmc"``, ``"ftsmc"``,
+        maybe others), in plot order.
+    title : str
+        The scenario, e.g. ``"A. sign switching"``; each figure's title is
+        ``"<what it shows> — <title>"``.
+    """
+    _items(results)
+
+    def full(what: str) -> str:
+        return f"{what} — {title}" if title else what
+
+    return {
+        "tracking_all": plot_tracking(results, title=full("Joint position tracking")),
+        "tracking_joint1": plot_tracking(
+            results, joints=[1], title=full("Joint 1 position tracking")
+        ),
+        "torque": plot_torque(results, title=full("Control torque")),
+        "sliding": plot_sliding(results, title=full("Sliding variable")),
+        "velocity": plot_velocity(results, title=full("Joint velocity")),
+        "error": plot_error(results, title=full("Tracking error")),
+        "steady_state": plot_steady_state(
+            results, title=full(f"Steady-state error, last {DEFAULT_WINDOW:g} s")
+        ),
+    }

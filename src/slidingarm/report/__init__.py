@@ -1,0 +1,60 @@
+"""The study's report: ``report.md`` (GitHub-flavoured markdown) and a self-contained
+``report.html``, written from a :class:`ReportContext` by :func:`write_report`.
+
+The report only formats what the study computed: the MSE beside the paper's, the gains and noise
+with their reasons, the checks, finite-time convergence, the sign/tanh chattering contrast, the
+paper's errata and their measured cost, the gain grid, every metric and every figure.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from slidingarm.report._build import PAPER_FIGURES, build_blocks, scenario_kind
+from slidingarm.report._context import ReportContext
+from slidingarm.report._format import format_value
+from slidingarm.report._html import render_html, render_markdown
+
+__all__ = ["PAPER_FIGURES", "ReportContext", "format_value", "scenario_kind", "write_report"]
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file and :func:`os.replace`."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_report(out_dir: str | os.PathLike[str], ctx: ReportContext) -> tuple[Path, Path]:
+    """Write ``out_dir/report.md`` and ``out_dir/report.html`` from ``ctx``.
+
+    The markdown links each figure's PNG by its path relative to ``out_dir`` (as
+    ``ctx.figures`` gives it); the HTML embeds the PNGs as base64 ``data:`` URIs and its CSS
+    inline, so it opens offline and can be mailed alone. Both files are written atomically
+    (temporary file, then :func:`os.replace`).
+
+    Raises
+    ------
+    FileNotFoundError
+        If a figure of ``ctx.figures`` does not exist under ``out_dir``.
+    """
+    out = Path(out_dir)
+    title, blocks = build_blocks(ctx, out)
+    missing = [str(b.path) for b in blocks if hasattr(b, "path") and not Path(b.path).is_file()]
+    if missing:
+        raise FileNotFoundError(
+            f"report figures not found (paths in ctx.figures are relative to {out}): {missing}"
+        )
+    md_path, html_path = out / "report.md", out / "report.html"
+    _atomic_write_text(md_path, render_markdown(blocks))
+    _atomic_write_text(html_path, render_html(title, blocks))
+    return md_path, html_path

@@ -1,0 +1,94 @@
+"""What the report is written from: the study's numbers, choices and figures, in one object."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+__all__ = ["ReportContext"]
+
+#: Columns the report cannot do without, per table (the others are shown when present).
+_REQUIRED: dict[str, tuple[str, ...]] = {
+    "metrics": ("scenario", "controller", "joint", "mse"),
+    "convergence": (),
+    "chattering": (),
+    "errata": (),
+    "grid": (),
+    "checks": (),
+}
+
+
+@dataclass(frozen=True, eq=False)
+class ReportContext:
+    """Everything :func:`~slidingarm.report.write_report` needs.
+
+    Attributes
+    ----------
+    metrics : DataFrame
+        Long table, one row per (scenario, controller, joint): columns ``scenario``,
+        ``controller``, ``joint`` (``"1"`` … ``"n"`` or ``"mean"``) and the metrics of
+        :data:`slidingarm.metrics.METRIC_COLUMNS` (``mse``, ``rmse``, …).
+    paper_mse : Mapping[str, float]
+        The paper's published MSE by controller name, e.g. ``{"ftsmc": 0.1331, ...}``.
+    gains : Mapping[str, Any]
+        The gains shared by the study (values may be nested mappings).
+    gain_reasons : str
+        Markdown: why these gains.
+    noise : Mapping[str, Any]
+        ``sigma``, the velocity estimator, the seed, … and ``"reasons"`` (markdown).
+    convergence : DataFrame
+        ``scenario, controller, joint, t_reach, e_at_reach, t_s_formula, t_s_measured,
+        rel_error``.
+    chattering : DataFrame
+        ``controller, sign, tanh, ratio``.
+    errata : DataFrame
+        ``variant, description, mse_mean, mse_joint1, steady_state_error, chattering``; the
+        numbers of a variant that diverged are missing (None/NaN) and its description says so.
+    grid : DataFrame
+        ``switching, k, lam_alpha, beta, gamma, mse_pdsmc, mse_tsmc, mse_ftsmc,
+        ranking_holds``.
+    checks : DataFrame
+        ``name, value, threshold, passed``.
+    figures : Mapping[str, Mapping[str, Path]]
+        Scenario → figure name → PNG path relative to the report's folder.
+    meta : Mapping[str, Any]
+        ``version``, ``seeds``, ``runtime_s``, ``command``, ``date``, Python and NumPy
+        versions, ….
+    """
+
+    metrics: pd.DataFrame
+    paper_mse: Mapping[str, float]
+    gains: Mapping[str, Any]
+    gain_reasons: str
+    noise: Mapping[str, Any]
+    convergence: pd.DataFrame
+    chattering: pd.DataFrame
+    errata: pd.DataFrame
+    grid: pd.DataFrame
+    checks: pd.DataFrame
+    figures: Mapping[str, Mapping[str, Path]]
+    meta: Mapping[str, Any]
+
+    def __post_init__(self) -> None:
+        for name, required in _REQUIRED.items():
+            value = getattr(self, name)
+            if not isinstance(value, pd.DataFrame):
+                raise TypeError(
+                    f"ReportContext.{name} must be a pandas DataFrame, got {type(value).__name__}"
+                )
+            missing = [c for c in required if c not in value.columns]
+            if missing:
+                raise ValueError(
+                    f"ReportContext.{name} lacks column(s) {missing}; it has {list(value.columns)}"
+                )
+        for name in ("paper_mse", "gains", "noise", "figures", "meta"):
+            if not isinstance(getattr(self, name), Mapping):
+                raise TypeError(
+                    f"ReportContext.{name} must be a mapping, got {type(getattr(self, name)).__name__}"
+                )
+        if not isinstance(self.gain_reasons, str):
+            raise TypeError("ReportContext.gain_reasons must be a markdown string")

@@ -1,0 +1,235 @@
+"""Tests for slidingarm.plotting: every figure on synthetic runs (fast), any joint count,
+external axes, the scenario set and deterministic, atomic saving."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from slidingarm.plotting import (
+    FIGURES,
+    REFERENCE_STYLE,
+    controller_style,
+    plot_error,
+    plot_sliding,
+    plot_steady_state,
+    plot_torque,
+    plot_tracking,
+    plot_velocity,
+    save_figure,
+    scenario_figures,
+)
+from slidingarm.plotting._style import band_limits, envelope, smooth
+from slidingarm.results import SimResult
+
+CONTROLLERS = ("pdsmc", "tsmc", "ftsmc")
+LABELS = {"PDSMC", "TSMC", "FTSMC"}
+
+
+def _run(n: int, rate: float, *, chatter: bool, steps: int = 400, dt: float = 5e-3) -> SimResult:
+    """A synthetic run: error decaying at ``rate`` from 0.3..0.9 rad, a sinusoidal reference,
+    torque with (``chatter``) or without sample-rate switching."""
+    t = np.arange(steps) * dt
+    j = np.arange(1, n + 1)
+    q_ref = 0.3 + 0.5 * np.sin(t[:, None] + j)
+    qd_ref = 0.5 * np.cos(t[:, None] + j)
+    e0 = 0.3 * j / n + 0.6
+    e = e0 * np.exp(-rate * t)[:, None]
+    q = q_ref + e
+    qd = qd_ref - rate * e
+    s = qd - qd_ref + 2.0 * e
+    sw = np.where(np.arange(steps) % 2 == 0, 1.0, -1.0)[:, None] if chatter else 0.0
+    tau = 10.0 * np.cos(t[:, None] * j) + 30.0 * sw * np.ones((1, n))
+    return SimResult(
+        t=t, q=q, qd=qd, q_ref=q_ref, qd_ref=qd_ref, q_meas=q + 1e-4, qd_meas=qd,
+        tau=tau, s=s, params={}, seed=None,
+    )  # fmt: skip
+
+
+def _results(n: int = 3, *, chatter: bool = True, dt: float = 5e-3) -> dict[str, SimResult]:
+    return {
+        name: _run(n, rate, chatter=chatter and name == "pdsmc", steps=round(2.0 / dt), dt=dt)
+        for name, rate in zip(CONTROLLERS, (2.0, 4.0, 6.0), strict=True)
+    }
+
+
+PLOTS = {
+    "tracking": (plot_tracking, "(rad)", True),
+    "velocity": (plot_velocity, "(rad/s)", True),
+    "torque": (plot_torque, "(N·m)", False),
+    "sliding": (plot_sliding, "(rad/s)", False),
+    "error": (plot_error, "(rad)", False),
+    "steady_state": (plot_steady_state, "(rad)", False),
+}
+
+
+def _labelled(ax: Axes) -> list[str]:
+    return [
+        str(line.get_label()) for line in ax.get_lines() if not line.get_label().startswith("_")
+    ]
+
+
+@pytest.mark.parametrize("kind", list(PLOTS))
+@pytest.mark.parametrize("n", [1, 3, 5])
+def test_plot_functions_draw_one_panel_per_joint_with_units(kind: str, n: int) -> None:
+    func, unit, has_ref = PLOTS[kind]
+    fig = func(_results(n))
+    assert isinstance(fig, Figure)
+    axes = fig.axes
+    assert len(axes) == n
+    assert "(s)" in axes[-1].get_xlabel()
+    for ax in axes:
+        assert unit in ax.get_ylabel()
+        labels = _labelled(ax)
+        # one line per controller, plus the reference where there is one
+        assert sorted(labels) == sorted([*LABELS, *(["reference"] if has_ref else [])])
+    assert fig.legends, "a figure of our own carries one legend"
+    assert fig.get_suptitle()
+
+
+@pytest.mark.parametrize("kind", list(PLOTS))
+def test_plot_functions_draw_into_given_axes(kind: str) -> None:
+    func, unit, _ = PLOTS[kind]
+    host = Figure()
+    ax = host.add_subplot()
+    assert func(_results(3), ax=ax, joints=[2]) is host
+    assert unit in ax.get_ylabel() and "₂" in ax.get_ylabel()
+    assert ax.get_legend() is not None
+    host = Figure()
+    axes = list(host.subplots(3, 1))
+    assert func(_results(3), ax=axes) is host
+    assert all(_labelled(a) for a in axes)
+
+
+def test_one_axes_for_several_joints_is_refused() -> None:
+    ax = Figure().add_subplot()
+    with pytest.raises(ValueError, match="joints"):
+        plot_tracking(_results(3), ax=ax)
+
+
+@pytest.mark.parametrize("joints", [[0], [4], []])
+def test_bad_joint_numbers_are_refused(joints: list[int]) -> None:
+    with pytest.raises(ValueError, match=r"1\.\.3"):
+        plot_error(_results(3), joints=joints)
+
+
+def test_empty_and_mismatched_results_are_refused() -> None:
+    with pytest.raises(ValueError, match="empty"):
+        plot_tracking({})
+    with pytest.raises(ValueError, match="same number of joints"):
+        plot_tracking({"pdsmc": _run(2, 1.0, chatter=False), "ftsmc": _run(3, 1.0, chatter=False)})
+
+
+def test_controller_styles_are_fixed_distinct_and_reference_dashed_black() -> None:
+    styles = [controller_style(c) for c in CONTROLLERS]
+    assert len({s.color for s in styles}) == 3
+    assert len({str(s.linestyle) for s in styles}) == 3
+    assert controller_style("FTSMC") == controller_style("ftsmc", 7)
+    assert REFERENCE_STYLE.color == "black" and REFERENCE_STYLE.linestyle != "solid"
+    # the same controller is drawn alike in different figures
+    a = plot_tracking(_results(1)).axes[0]
+    b = plot_error(_results(1)).axes[0]
+    colors_a = {str(ln.get_label()): ln.get_color() for ln in a.get_lines()}
+    colors_b = {str(ln.get_label()): ln.get_color() for ln in b.get_lines()}
+    assert all(colors_a[k] == colors_b[k] for k in LABELS)
+    extra = controller_style("mystery", 0)
+    assert extra.label == "MYSTERY" and extra.color not in {s.color for s in styles}
+
+
+def test_chattering_signal_is_drawn_as_band_under_its_mean() -> None:
+    fig = plot_torque(_results(1, chatter=True, dt=5e-4))  # a 10-sample moving mean
+    ax = fig.axes[0]
+    assert len(ax.collections) == 1  # only PDSMC chatters in the synthetic runs
+    pd_line = next(ln for ln in ax.get_lines() if ln.get_label() == "PDSMC")
+    y = np.asarray(pd_line.get_ydata())
+    assert np.ptp(y[5:-5]) < 25.0  # the ±30 N·m switching is averaged out of the line
+    assert not plot_torque(_results(1, chatter=False, dt=5e-4)).axes[0].collections
+
+
+def test_sliding_uses_symlog_and_steady_state_zooms_on_the_last_window() -> None:
+    fig = plot_sliding(_results(2))
+    assert all(ax.get_yscale() == "symlog" for ax in fig.axes)
+    assert plot_sliding(_results(2), scale="linear").axes[0].get_yscale() == "linear"
+    fig = plot_steady_state(_results(2), window=0.5)
+    t_end = _results(2)["ftsmc"].t[-1]
+    lo, hi = fig.axes[0].get_xlim()
+    assert lo == pytest.approx(t_end - 0.5, abs=5e-3) and hi == pytest.approx(t_end)
+    assert fig.axes[0].get_yscale() == "log"
+    for line in fig.axes[0].get_lines():
+        assert np.nanmin(np.asarray(line.get_ydata())) > 0.0
+
+
+def test_scenario_figures_has_every_figure_titled() -> None:
+    figs = scenario_figures(_results(3), title="A. sign switching")
+    assert tuple(figs) == FIGURES
+    assert all(isinstance(f, Figure) for f in figs.values())
+    assert all("A. sign switching" in f.get_suptitle() for f in figs.values())
+    assert len(figs["tracking_joint1"].axes) == 1
+    assert len(figs["tracking_all"].axes) == 3
+
+
+def test_save_figure_writes_png_and_svg_atomically_and_deterministically(tmp_path: Path) -> None:
+    paths = save_figure(plot_tracking(_results(2)), tmp_path / "a" / "fig.v1")
+    assert paths == [tmp_path / "a" / "fig.v1.png", tmp_path / "a" / "fig.v1.svg"]
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["fig.v1.png", "fig.v1.svg"]
+    assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert b"<svg" in paths[1].read_bytes()[:2000]
+    again = save_figure(plot_tracking(_results(2)), tmp_path / "b" / "fig.v1")
+    assert again[1].read_bytes() == paths[1].read_bytes()
+    assert again[0].read_bytes() == paths[0].read_bytes()
+
+
+def test_save_figure_clears_the_figure(tmp_path: Path) -> None:
+    fig = plot_error(_results(1))
+    save_figure(fig, tmp_path / "x")
+    assert not fig.axes
+
+
+def test_envelope_keeps_extremes_and_ends() -> None:
+    rng = np.random.default_rng(0)
+    t = np.arange(10_001) * 1e-3
+    y = rng.normal(size=t.size)
+    tt, yy = envelope(t, y, 1000)
+    assert tt.size <= 1000 + 12
+    assert np.all(np.diff(tt) > 0)
+    assert yy.max() == y.max() and yy.min() == y.min()
+    assert tt[0] == t[0] and tt[-1] == t[-1]
+    small = envelope(t[:50], y[:50], 1000)
+    assert small[0] is t[:50] or np.array_equal(small[0], t[:50])
+    tb, lo, hi = band_limits(t, y, 500)
+    assert lo.min() == y.min() and hi.max() == y.max() and tb[0] == t[0] and tb[-1] == t[-1]
+
+
+def test_smooth_keeps_constants_and_ends() -> None:
+    y = np.full(50, -250.0)
+    np.testing.assert_allclose(smooth(y, 10), y)
+    ramp = np.arange(20.0)
+    out = smooth(ramp, 5)
+    np.testing.assert_allclose(out[2:-2], ramp[2:-2])
+    assert out[0] == pytest.approx(1.0)  # mean of 0, 1, 2: the shrunk window, not padded
+
+
+def test_plotting_never_imports_pyplot() -> None:
+    code = (
+        "import sys, slidingarm.plotting as p, numpy as np\n"
+        "assert 'matplotlib.pyplot' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_power_of_ten_labels_are_plain_unicode() -> None:
+    from slidingarm.plotting._style import pow10_text, subscript
+
+    assert pow10_text(1e-3) == "10⁻³" and pow10_text(1.0) == "10⁰"
+    assert pow10_text(-2e-4) == "−2×10⁻⁴" and pow10_text(0.0) == "0"
+    assert subscript(12) == "₁₂"
+    fig = plot_steady_state(_results(1))
+    fig.canvas.draw()
+    labels = [t.get_text() for t in fig.axes[0].get_yticklabels() if t.get_text()]
+    assert labels and not any("$" in t for t in labels)
