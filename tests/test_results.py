@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+import stat
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -121,6 +123,16 @@ def test_save_load_round_trip_is_exact(result: SimResult, tmp_path: Path) -> Non
     assert back.seed == result.seed == 17
     # no temporary file is left behind
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]
+
+
+def test_saved_file_has_the_ordinary_mode(result: SimResult, tmp_path: Path) -> None:
+    """The atomic write goes through mkstemp (0600); the file must end as 0666 & ~umask."""
+    old = os.umask(0o022)
+    try:
+        path = result.save(tmp_path / "run.npz")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
 
 
 def test_save_adds_the_suffix_and_keeps_a_null_seed(tmp_path: Path) -> None:

@@ -292,13 +292,6 @@ def test_a_lower_speed_limit_stops_earlier() -> None:
     assert info.value.time == pytest.approx(r.t[k])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="engine bug: a state that overflows to inf/NaN inside an RK4 step makes the "
-    "Cholesky pivot test fail, and _engine.run_batch reports STATUS_SINGULAR ('the mass "
-    "matrix stopped being positive definite', joint hard-coded to 1) before its finiteness "
-    "check; see the issue-3 report",
-)
 def test_an_overflowing_state_is_reported_as_non_finite() -> None:
     with pytest.raises(SimulationError, match=r"a non-finite value \(NaN or inf\) appeared"):
         simulate(ARM, ftsmc(), REF, q0=PAPER_Q0, t_final=0.1, dt=DT,

@@ -444,17 +444,20 @@ def _run_one(
             ok &= _rk4_step(
                 pa, pg, q, qd, tau_applied, h, exact and sub == 0, kst, dq, qtmp, vtmp, base, work
             )
-        if not ok:
-            status[b, 0] = STATUS_SINGULAR
-            status[b, 1] = k + 1
-            status[b, 2] = 0
-            return
+        # An overflow inside the step also fails the pivot test, so finiteness is checked first:
+        # a non-finite state is reported as such, with its joint, never as a singular M.
         for j in range(n):
             if not (math.isfinite(q[j]) and math.isfinite(qd[j])):
                 status[b, 0] = STATUS_NONFINITE
                 status[b, 1] = k + 1
                 status[b, 2] = j
                 return
+        if not ok:
+            status[b, 0] = STATUS_SINGULAR
+            status[b, 1] = k + 1
+            status[b, 2] = 0
+            return
+        for j in range(n):
             if abs(qd[j]) > qd_limit:
                 status[b, 0] = STATUS_RUNAWAY
                 status[b, 1] = k + 1

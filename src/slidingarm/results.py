@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,6 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from slidingarm._io import atomic_write_bytes
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -37,19 +38,6 @@ SIGNALS: dict[str, tuple[str, str]] = {
     "tau": ("tau", "N m"),
     "s": ("s", "rad/s"),
 }
-
-
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and an atomic rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,7 +162,7 @@ class SimResult:
         arrays = {name: getattr(self, name) for name in ("t", *SIGNALS)}
         meta = json.dumps({"params": self.params, "seed": self.seed})
         np.savez_compressed(buf, **arrays, meta=np.array(meta))
-        _atomic_write_bytes(p, buf.getvalue())
+        atomic_write_bytes(p, buf.getvalue())
         return p
 
     @classmethod

@@ -5,32 +5,18 @@ from __future__ import annotations
 import io
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import matplotlib
 from matplotlib.figure import Figure
 
+from slidingarm._io import atomic_write_bytes
 from slidingarm.plotting._style import RC
 
 __all__ = ["PNG_DPI", "save_figure"]
 
 #: Resolution of the PNG files: sharp on screen and in the HTML report, quick to render.
 PNG_DPI = 150
-
-
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; figures are for everyone to read
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
@@ -58,8 +44,8 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
         buf = io.BytesIO()
         fig.savefig(buf, format="svg", metadata={"Date": None})
         svg_bytes = buf.getvalue()
-    _atomic_write_bytes(png, png_bytes)
-    _atomic_write_bytes(svg, svg_bytes)
+    atomic_write_bytes(png, png_bytes)
+    atomic_write_bytes(svg, svg_bytes)
     if "matplotlib.pyplot" in sys.modules:
         sys.modules["matplotlib.pyplot"].close(fig)
     fig.clear()

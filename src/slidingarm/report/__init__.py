@@ -9,29 +9,15 @@ paper's errata and their measured cost, the gain grid, every metric and every fi
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
+from slidingarm._io import atomic_write_text
 from slidingarm.report._build import PAPER_FIGURES, build_blocks, scenario_kind
 from slidingarm.report._context import ReportContext
 from slidingarm.report._format import format_value
 from slidingarm.report._html import render_html, render_markdown
 
 __all__ = ["PAPER_FIGURES", "ReportContext", "format_value", "scenario_kind", "write_report"]
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` through a temporary file and :func:`os.replace`."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_report(out_dir: str | os.PathLike[str], ctx: ReportContext) -> tuple[Path, Path]:
@@ -55,6 +41,6 @@ def write_report(out_dir: str | os.PathLike[str], ctx: ReportContext) -> tuple[P
             f"report figures not found (paths in ctx.figures are relative to {out}): {missing}"
         )
     md_path, html_path = out / "report.md", out / "report.html"
-    _atomic_write_text(md_path, render_markdown(blocks))
-    _atomic_write_text(html_path, render_html(title, blocks))
+    atomic_write_text(md_path, render_markdown(blocks))
+    atomic_write_text(html_path, render_html(title, blocks))
     return md_path, html_path

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from slidingarm._io import umask
 from slidingarm.results import SimResult
 
 __all__ = ["MANIFEST", "OutputError", "Staging", "csv_bytes"]
@@ -30,12 +31,6 @@ MANIFEST = "manifest.json"
 
 class OutputError(OSError):
     """The output folder cannot be used (it is a file, or cannot be created or written)."""
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 class Staging:
@@ -61,8 +56,8 @@ class Staging:
         if self.target.is_dir() and not os.access(self.target, os.W_OK | os.X_OK):
             self.discard()
             raise OutputError(f"{target}: the folder is not writable")
-        self._mode_dir = 0o777 & ~_umask()
-        self._mode_file = 0o666 & ~_umask()
+        self._mode_dir = 0o777 & ~umask()
+        self._mode_file = 0o666 & ~umask()
         self.path.chmod(self._mode_dir)
 
     def file(self, relative: str | os.PathLike[str]) -> Path:
