@@ -37,7 +37,6 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import BSpline, make_interp_spline
 
 __all__ = [
     "PAPER_DT",
@@ -542,7 +541,10 @@ class TableReference(Reference):
         self._t = times
         self._q = qa
         self._spline: SplineKind = spline
-        pos: BSpline = make_interp_spline(times, qa, k=k, axis=0)
+        # imported here: scipy.interpolate alone would double the time of `import slidingarm`
+        from scipy.interpolate import make_interp_spline
+
+        pos = make_interp_spline(times, qa, k=k, axis=0)
         self._splines = (pos, pos.derivative(1), pos.derivative(2))
 
     @classmethod

@@ -234,15 +234,17 @@ def control_once(
     qdd_ref: np.ndarray,
     st_state: np.ndarray,
     dt: float,
-    out: np.ndarray,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
     scratch: np.ndarray,
 ) -> None:
-    """One call from Python: ``out`` is (2, n) ``[tau; s]``; ``scratch`` is
-    ``(CONTROL_WORK_ROWS + 2 n, n)`` holding the work rows and the two (n, n) matrices."""
+    """One call from Python: torque into ``tau_out`` and sliding variable into ``s_out``, (n,)
+    each; ``scratch`` is ``(CONTROL_WORK_ROWS + 2 n, n)`` holding the work rows and the two
+    (n, n) matrices."""
     n = q.shape[0]
     work = scratch[:CONTROL_WORK_ROWS]
     mmat = scratch[CONTROL_WORK_ROWS : CONTROL_WORK_ROWS + n]
     lw = scratch[CONTROL_WORK_ROWS + n : CONTROL_WORK_ROWS + 2 * n]
     control_into(
-        ci, cf, arm, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, out[0], out[1], mmat, lw, work
+        ci, cf, arm, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, mmat, lw, work
     )

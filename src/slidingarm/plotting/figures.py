@@ -418,7 +418,9 @@ def plot_steady_state(
 
 
 # ---------------------------------------------------------------------------- one scenario
-def scenario_figures(results: Results, *, title: str) -> dict[str, Figure]:
+def scenario_figures(
+    results: Results, *, title: str, only: Sequence[str] | None = None
+) -> dict[str, Figure]:
     """Every figure of one scenario (SPEC §7), keyed by :data:`FIGURES`, in that order.
 
     Parameters
@@ -429,22 +431,35 @@ def scenario_figures(results: Results, *, title: str) -> dict[str, Figure]:
     title : str
         The scenario, e.g. ``"A. sign switching"``; each figure's title is
         ``"<what it shows> — <title>"``.
+    only : sequence of str, optional
+        Draw just these figures (names from :data:`FIGURES`), e.g. to share the figures of a
+        study out among processes.
+
+    Raises
+    ------
+    ValueError
+        If ``only`` names a figure that is not in :data:`FIGURES`.
     """
     _items(results)
+    wanted = list(FIGURES) if only is None else list(only)
+    unknown = [name for name in wanted if name not in FIGURES]
+    if unknown:
+        raise ValueError(f"unknown figure {unknown[0]!r}; the figures are {', '.join(FIGURES)}")
 
     def full(what: str) -> str:
         return f"{what} — {title}" if title else what
 
-    return {
-        "tracking_all": plot_tracking(results, title=full("Joint position tracking")),
-        "tracking_joint1": plot_tracking(
+    draw: dict[str, Callable[[], Figure]] = {
+        "tracking_all": lambda: plot_tracking(results, title=full("Joint position tracking")),
+        "tracking_joint1": lambda: plot_tracking(
             results, joints=[1], title=full("Joint 1 position tracking")
         ),
-        "torque": plot_torque(results, title=full("Control torque")),
-        "sliding": plot_sliding(results, title=full("Sliding variable")),
-        "velocity": plot_velocity(results, title=full("Joint velocity")),
-        "error": plot_error(results, title=full("Tracking error")),
-        "steady_state": plot_steady_state(
+        "torque": lambda: plot_torque(results, title=full("Control torque")),
+        "sliding": lambda: plot_sliding(results, title=full("Sliding variable")),
+        "velocity": lambda: plot_velocity(results, title=full("Joint velocity")),
+        "error": lambda: plot_error(results, title=full("Tracking error")),
+        "steady_state": lambda: plot_steady_state(
             results, title=full(f"Steady-state error, last {DEFAULT_WINDOW:g} s")
         ),
     }
+    return {name: draw[name]() for name in FIGURES if name in wanted}

@@ -24,7 +24,7 @@ import multiprocessing
 import os
 import platform
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -126,13 +126,18 @@ def _title(setup: Setup) -> str:
 
 
 def render_figures(
-    name: str, results: Mapping[str, SimResult], title: str, fig_dir: Path
+    name: str,
+    results: Mapping[str, SimResult],
+    title: str,
+    fig_dir: Path,
+    only: Sequence[str] | None = None,
 ) -> dict[str, Path]:
-    """Draw and save the figures of one scenario as ``fig_dir/<name>_<figure>.png/.svg``;
-    return figure name → PNG path. (Top-level so that a worker process can run it.)"""
+    """Draw and save the figures of one scenario (or ``only`` these) as
+    ``fig_dir/<name>_<figure>.png/.svg``; return figure name → PNG path. (Top-level so that a
+    worker process can run it.)"""
     from slidingarm.plotting import save_figure, scenario_figures
 
-    figures = scenario_figures(results, title=title)
+    figures = scenario_figures(results, title=title, only=only)
     paths: dict[str, Path] = {}
     for fig_name, fig in figures.items():
         written = save_figure(fig, fig_dir / f"{name}_{fig_name}")
@@ -346,12 +351,19 @@ def reproduce(
 
         fig_dir = staging.path / "figures"
         fig_dir.mkdir(parents=True, exist_ok=True)
-        futures: dict[str, cf.Future[dict[str, Path]]] = {}
+        # one task per figure, so that the workers stay busy to the end (per scenario, the
+        # last scenario's figures were drawn by one worker while the others idled)
+        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {}
         if pool is not None:
+            from slidingarm.plotting import FIGURES
+
             for name, setup in setups.items():
-                futures[name] = pool.submit(
-                    render_figures, name, results[name], _title(setup), fig_dir
-                )
+                futures[name] = [
+                    pool.submit(
+                        render_figures, name, results[name], _title(setup), fig_dir, (figure,)
+                    )
+                    for figure in FIGURES
+                ]
 
         for name in setups:
             _stage_runs(staging, name, results[name], steps)
@@ -395,7 +407,7 @@ def reproduce(
         for name, setup in setups.items():
             if name in futures:
                 steps.start(f"{name}: figures")
-                paths = futures[name].result()
+                paths = {k: p for future in futures[name] for k, p in future.result().items()}
             else:
                 steps.start(f"{name}: figures")
                 paths = render_figures(name, results[name], _title(setup), fig_dir)
