@@ -25,6 +25,7 @@ import itertools
 import math
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 from numba import config, njit, types
@@ -202,23 +203,22 @@ def _run_batch(
     bounds = [nb * i // nthreads for i in range(nthreads + 1)]
     with ThreadPoolExecutor(nthreads) as pool:
         blocks = [
-            pool.submit(_run_block_untyped, *_block(args, nb, lo, hi))
+            pool.submit(_run_block, *_block(args, nb, lo, hi))
             for lo, hi in itertools.pairwise(bounds)
         ]
         for block in blocks:
             block.result()
 
 
-#: :func:`_run_block` for a tuple of arguments sliced by :func:`_block`.
-_run_block_untyped: Callable[..., None] = lambda *args: _run_block(*args)  # noqa: E731
-
 #: :func:`_run_batch`, typed as loosely as the compiled dispatcher it replaced, so that callers
 #: may pass the outputs as ``*outputs``.
 run_batch: Callable[..., None] = _run_batch
 
 
-# positions of q_ref, qd_ref, qdd_ref among the arguments: their leading axis is time
+# positions of q_ref, qd_ref, qdd_ref among the arguments (their leading axis is time), and of
+# q_out
 _TIME_ARGS = (8, 9, 10)
+_Q_OUT_ARG = 20
 
 
 def _block(args: tuple[object, ...], nb: int, lo: int, hi: int) -> tuple[object, ...]:
@@ -232,49 +232,19 @@ def _block(args: tuple[object, ...], nb: int, lo: int, hi: int) -> tuple[object,
     )
 
 
-def _run_block(
-    plant_arm: np.ndarray,
-    plant_g: np.ndarray,
-    ci: np.ndarray,
-    cf: np.ndarray,
-    ctrl_arm: np.ndarray,
-    ctrl_g: np.ndarray,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    q_ref: np.ndarray,
-    qd_ref: np.ndarray,
-    qdd_ref: np.ndarray,
-    meas_add: np.ndarray,
-    meas_hold: np.ndarray,
-    vel_code: np.ndarray,
-    vf: np.ndarray,
-    dist: np.ndarray,
-    tau_max: np.ndarray,
-    dt: float,
-    substeps: int,
-    qd_limit: float,
-    q_out: np.ndarray,
-    qd_out: np.ndarray,
-    qm_out: np.ndarray,
-    qdm_out: np.ndarray,
-    tau_out: np.ndarray,
-    s_out: np.ndarray,
-    status: np.ndarray,
-) -> None:
-    """:func:`_run_batch` in the calling thread: one compiled :func:`_run_one` per run.
+def _run_block(*args: Any) -> None:
+    """:func:`_run_batch` (the same arguments) in the calling thread: one compiled
+    :func:`_run_one` per run.
 
     The loop over runs stays in Python (a few microseconds per run against milliseconds of
     compiled work) so that only :func:`_run_one` is compiled: a compiled wrapper around it
     cost another 2.5 s of compilation on a cold cache.
     """
+    q_out = args[_Q_OUT_ARG]
     n = q_out.shape[2]
     workspace = np.empty((_MATRICES + 2 * n, n))
     for b in range(q_out.shape[0]):
-        _run_one(
-            b, plant_arm, plant_g, ci, cf, ctrl_arm, ctrl_g, q0, qd0, q_ref, qd_ref, qdd_ref,
-            meas_add, meas_hold, vel_code, vf, dist, tau_max, dt, substeps, qd_limit,
-            q_out, qd_out, qm_out, qdm_out, tau_out, s_out, status, workspace,
-        )  # fmt: skip
+        _run_one(b, *args, workspace)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
