@@ -152,9 +152,21 @@ def test_run_into_an_existing_file(tmp_path: Path, short_config: Path) -> None:
 def test_run_into_an_unwritable_place(tmp_path: Path, short_config: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    code, _, err = invoke("run", str(short_config), "--out", str(blocker / "sub"))
+    code, _, err = invoke("run", str(short_config), "--out", str(blocker / "sub" / "deeper"))
     assert code == EXIT_USAGE
-    assert "cannot write there" in one_line_error(err)
+    assert (
+        one_line_error(err)
+        == f"error: {blocker / 'sub' / 'deeper'}: {blocker} is a file, not a folder"
+    )
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc")
+def test_run_where_no_folder_can_be_made(tmp_path: Path, short_config: Path) -> None:
+    """/proc takes no new folders, whoever runs the test (root ignores permission bits)."""
+    code, _, err = invoke("run", str(short_config), "--out", "/proc/slidingarm-test/out")
+    assert code == EXIT_USAGE
+    assert one_line_error(err).startswith("error: /proc/slidingarm-test/out: cannot write there (")
+
 
 
 def test_run_missing_config(tmp_path: Path) -> None:

@@ -47,6 +47,11 @@ class Staging:
         self.target = Path(target).absolute()
         if self.target.exists() and not self.target.is_dir():
             raise OutputError(f"{target}: exists and is not a folder; choose another --out")
+        for ancestor in self.target.parents:
+            if ancestor.exists():
+                if not ancestor.is_dir():
+                    raise OutputError(f"{target}: {ancestor} is a file, not a folder")
+                break
         parent = self.target.parent
         try:
             parent.mkdir(parents=True, exist_ok=True)
