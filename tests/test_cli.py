@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -133,7 +135,10 @@ def test_run_writes_a_results_folder(tmp_path: Path, short_config: Path) -> None
         assert len(df) == 501 and list(df.columns[:4]) == ["t", "q1", "q2", "q3"]
     metrics = pd.read_csv(out / "metrics.csv")
     assert len(metrics) == 3 * 4
-    assert (out / "config" / "short.toml").is_file()
+    config = (out / "config" / "short.toml").read_text(encoding="utf-8")
+    assert config.startswith(f"# ran with slidingarm {__version__}, seed 2024 (simulation.seed)")
+    code, _, err = invoke("validate", str(out / "config" / "short.toml"))
+    assert code == 0, err
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["scenarios"] == ["short"] and manifest["command"].startswith("slidingarm run")
     # nothing left behind: no staging folder next to the output
@@ -166,7 +171,6 @@ def test_run_where_no_folder_can_be_made(tmp_path: Path, short_config: Path) -> 
     code, _, err = invoke("run", str(short_config), "--out", "/proc/slidingarm-test/out")
     assert code == EXIT_USAGE
     assert one_line_error(err).startswith("error: /proc/slidingarm-test/out: cannot write there (")
-
 
 
 def test_run_missing_config(tmp_path: Path) -> None:
@@ -202,3 +206,31 @@ def test_python_dash_m() -> None:
     assert done.stderr.strip().splitlines() == [
         "error: nonesuch.toml: no such file (nor the name of a shipped scenario: sign, tanh, noise)"
     ]
+
+
+def test_a_name_too_long_for_the_file_system(tmp_path: Path, short_config: Path) -> None:
+    long = "b" * 300
+    code, _, err = invoke("validate", f"{long}.toml")
+    assert code == EXIT_USAGE
+    assert one_line_error(err).startswith(f"error: {long}.toml: cannot be read (")
+    code, _, err = invoke("run", str(short_config), "--out", str(tmp_path / long))
+    assert code == EXIT_USAGE
+    assert one_line_error(err).startswith(f"error: {tmp_path / long}: cannot write there (")
+
+
+def test_a_full_disk_is_one_line_and_writes_nothing(
+    tmp_path: Path, short_config: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from slidingarm.study.output import Staging
+
+    def full(self: Staging, relative: str, data: bytes) -> Path:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.path / relative))
+
+    monkeypatch.setattr(Staging, "write_bytes", full)
+    out = tmp_path / "out"
+    code, _, err = invoke("run", str(short_config), "--out", str(out), "--no-figures")
+    assert code == EXIT_USAGE
+    line = one_line_error(err)
+    assert line.endswith(f"{os.strerror(errno.ENOSPC)}; nothing was written")
+    assert "short/pdsmc.csv" in line
+    assert list(tmp_path.iterdir()) == [short_config], "neither the output nor a staging folder"

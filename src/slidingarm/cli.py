@@ -2,7 +2,8 @@
 
 Verbs: ``reproduce`` (the whole study), ``run`` (one scenario), ``validate``, ``list``,
 ``schema``; ``--version``. A user mistake (missing or invalid scenario file, unusable output
-folder) prints one line on stderr and exits with status 2; a diverging simulation or a failed
+folder, a file or folder the system refuses, e.g. a full disk) prints one line on stderr and
+exits with status 2; a diverging simulation or a failed
 check of the study exits with 1; an interrupt with 130. Progress bars go to stderr and only
 when stdout is a terminal.
 """
@@ -85,6 +86,11 @@ def _errors() -> Iterator[None]:
         _fail(str(exc), EXIT_USAGE)
     except SimulationError as exc:
         _fail(str(exc), EXIT_FAILED)
+    except OSError as exc:
+        # the system refused a file or folder the user chose (disk full, permissions, ...);
+        # the staged output has been discarded by then
+        where = f"{exc.filename}: " if exc.filename else ""
+        _fail(f"{where}{exc.strerror or exc}; nothing was written", EXIT_USAGE)
     except KeyboardInterrupt:
         _fail("interrupted; the output folder was left as it was", EXIT_INTERRUPTED)
 

@@ -45,17 +45,19 @@ class Staging:
 
     def __init__(self, target: str | os.PathLike[str]) -> None:
         self.target = Path(target).absolute()
-        if self.target.exists() and not self.target.is_dir():
-            raise OutputError(f"{target}: exists and is not a folder; choose another --out")
-        for ancestor in self.target.parents:
-            if ancestor.exists():
-                if not ancestor.is_dir():
-                    raise OutputError(f"{target}: {ancestor} is a file, not a folder")
-                break
-        parent = self.target.parent
         try:
+            if self.target.exists() and not self.target.is_dir():
+                raise OutputError(f"{target}: exists and is not a folder; choose another --out")
+            for ancestor in self.target.parents:
+                if ancestor.exists():
+                    if not ancestor.is_dir():
+                        raise OutputError(f"{target}: {ancestor} is a file, not a folder")
+                    break
+            parent = self.target.parent
             parent.mkdir(parents=True, exist_ok=True)
             self.path = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.partial-", dir=parent))
+        except OutputError:
+            raise
         except OSError as exc:
             raise OutputError(f"{target}: cannot write there ({exc.strerror or exc})") from None
         if self.target.is_dir() and not os.access(self.target, os.W_OK | os.X_OK):
@@ -103,19 +105,27 @@ class Staging:
         return self.write_text(MANIFEST, json.dumps(body, indent=2, default=_json_default) + "\n")
 
     def publish(self) -> Path:
-        """Move the staged files into the target; the manifest last. Returns the target."""
+        """Move the staged files into the target; the manifest last. Returns the target.
+
+        Into an existing folder, files of the same names are replaced, and the files that the
+        folder's previous ``manifest.json`` listed but this run did not write are removed, so
+        that no result of an earlier run passes for one of this run. Files that no manifest
+        lists (the user's own) are left alone.
+        """
         for p in self.path.rglob("*"):
             p.chmod(self._mode_dir if p.is_dir() else self._mode_file)
         try:
             if not self.target.exists():
                 os.replace(self.path, self.target)
                 return self.target
+            previous = _listed_files(self.target / MANIFEST)
             (self.target / MANIFEST).unlink(missing_ok=True)
             staged = [rel for rel in self.files() if rel.as_posix() != MANIFEST]
             for rel in staged:
                 dest = self.target / rel
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(self.path / rel, dest)
+            _remove_stale(self.target, previous - {rel.as_posix() for rel in staged})
             if (self.path / MANIFEST).exists():
                 os.replace(self.path / MANIFEST, self.target / MANIFEST)
         except OSError as exc:
@@ -127,6 +137,30 @@ class Staging:
     def discard(self) -> None:
         """Remove the staging folder and everything in it."""
         shutil.rmtree(self.path, ignore_errors=True)
+
+
+def _listed_files(manifest: Path) -> set[str]:
+    """The relative paths a previous run's manifest lists (none if it is missing or unreadable)."""
+    try:
+        entries = json.loads(manifest.read_text(encoding="utf-8")).get("files", [])
+        return {str(e["path"]) for e in entries if isinstance(e, dict) and "path" in e}
+    except (OSError, ValueError, AttributeError, TypeError):
+        return set()
+
+
+def _remove_stale(target: Path, stale: set[str]) -> None:
+    """Remove the files ``stale`` (relative paths) inside ``target``, then the folders they
+    leave empty; never anything outside ``target``."""
+    root = target.resolve()
+    for rel in sorted(stale):
+        path = (target / rel).resolve()
+        if root not in path.parents or not path.is_file():
+            continue
+        path.unlink()
+        for folder in path.parents:
+            if folder == root or any(folder.iterdir()):
+                break
+            folder.rmdir()
 
 
 def _json_default(x: Any) -> Any:

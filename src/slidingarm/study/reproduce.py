@@ -214,6 +214,16 @@ def _noise(scenario: Scenario) -> dict[str, Any]:
     }
 
 
+def _config_text(scenario: Scenario) -> str:
+    """The scenario as it ran, headed by the package version and its seed (a TOML comment, so
+    the file still runs as it is)."""
+    return (
+        f"# ran with slidingarm {__version__}, seed {scenario.simulation.seed} "
+        "(simulation.seed); run it again with `slidingarm run <this file> --out DIR`\n"
+        + scenario.to_toml()
+    )
+
+
 def _warm_up() -> None:
     """Import the plotting stack in a worker process ahead of its first figure."""
     import slidingarm.plotting  # noqa: F401
@@ -263,7 +273,7 @@ def run(
         _stage_runs(staging, name, results, steps)
         metrics = A.metrics_table({name: results})
         _stage_table(staging, "metrics.csv", metrics)
-        staging.write_text(f"config/{name}.toml", scenario.to_toml())
+        staging.write_text(f"config/{name}.toml", _config_text(scenario))
         steps("metrics and config")
         if figures:
             steps.start(f"{name}: figures")
@@ -401,7 +411,7 @@ def reproduce(
         ):
             _stage_table(staging, relative, table)
         for name, scenario in scenarios.items():
-            staging.write_text(f"config/{name}.toml", scenario.to_toml())
+            staging.write_text(f"config/{name}.toml", _config_text(scenario))
 
         figure_paths: dict[str, dict[str, Path]] = {}
         for name, setup in setups.items():

@@ -54,7 +54,11 @@ def resolve_scenario(spec: str | Path) -> Scenario:
     An existing file wins; otherwise a name in :data:`SCENARIOS` loads the shipped file.
     """
     path = Path(spec)
-    if not path.exists():
+    try:
+        exists = path.exists()
+    except OSError as exc:  # e.g. a name longer than the file system allows
+        raise ConfigError(f"cannot be read ({exc.strerror or exc})", file=path) from None
+    if not exists:
         if str(spec) in SCENARIOS:
             return load_shipped(str(spec))
         raise ConfigError(
