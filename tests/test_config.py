@@ -86,7 +86,7 @@ def test_minimal_builds_the_library_objects(tmp_path: Path) -> None:
     pd_, ts, ft = setup.controllers.values()
     assert isinstance(pd_, PDSMC) and isinstance(ts, TSMC) and isinstance(ft, FTSMC)
     # the shared gains reach every controller that has them
-    assert pd_.to_dict()["alpha"] == 2.0
+    assert pd_.to_dict()["lam"] == 2.0
     assert ft.to_dict()["alpha"] == 2.0 and ft.to_dict()["beta"] == 2.0
     assert ts.to_dict()["beta"] == 2.0
     assert ts.to_dict()["gamma"] == pytest.approx(0.6)
@@ -109,7 +109,7 @@ def test_lam_is_alpha_and_controller_overrides(tmp_path: Path) -> None:
         """
     )
     setup = load_scenario(write(tmp_path, text)).build()
-    assert setup.controllers["pdsmc"].to_dict()["alpha"] == 3.0
+    assert setup.controllers["pdsmc"].to_dict()["lam"] == 3.0
     extra = setup.controllers["ftsmc-tanh"]
     assert extra.switching == "tanh" and extra.law == "paper"
     assert extra.to_dict()["width"] == 0.05 and float(extra.k[0]) == 40.0

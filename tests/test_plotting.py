@@ -3,6 +3,7 @@ external axes, the scenario set and deterministic, atomic saving."""
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 from pathlib import Path
@@ -105,6 +106,41 @@ def test_plot_functions_draw_into_given_axes(kind: str) -> None:
     axes = list(host.subplots(3, 1))
     assert func(_results(3), ax=axes) is host
     assert all(_labelled(a) for a in axes)
+
+
+def _as(res: SimResult, controller: str) -> SimResult:
+    """``res`` recorded as a run of ``controller`` (only the name matters to the unit)."""
+    return dataclasses.replace(res, params={"controller": {"controller": controller}})
+
+
+@pytest.mark.parametrize(
+    ("controllers", "unit"),
+    [
+        # s = e + (1/beta) sig(e_dot)^(p/q) is an angle
+        (("ntsmc",), "(rad)"),
+        (("ntsmc", "ntsmc"), "(rad)"),
+        # s = e_dot + ... is an angular speed
+        (("pdsmc", "tsmc", "ftsmc"), "(rad/s)"),
+        # mixed: each family's unit, none of them wrong
+        (("ftsmc", "ntsmc"), "(rad/s; NTSMC: rad)"),
+    ],
+)
+def test_sliding_label_has_the_unit_of_the_controllers_drawn(
+    controllers: tuple[str, ...], unit: str
+) -> None:
+    runs = _results(2)
+    base = list(runs.values())
+    results = {f"{c}-{i}": _as(base[i], c) for i, c in enumerate(controllers)}
+    fig = plot_sliding(results)
+    assert [ax.get_ylabel() for ax in fig.axes] == [f"s₁ {unit}", f"s₂ {unit}"]
+    notes = [t.get_text() for ax in fig.axes for t in ax.texts if "symlog" in t.get_text()]
+    assert notes, "the symlog panels state their linear half-width"
+    bare = unit.strip("()")
+    for note in notes:
+        if "; " in bare:
+            assert not note.endswith("rad") and not note.endswith("rad/s")
+        else:
+            assert note.endswith(f" {bare}")
 
 
 def test_one_axes_for_several_joints_is_refused() -> None:

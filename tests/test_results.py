@@ -147,6 +147,19 @@ def test_save_adds_the_suffix_and_keeps_a_null_seed(tmp_path: Path) -> None:
     assert SimResult.load(path).seed == 5
 
 
+@pytest.mark.parametrize("name", ["res.h5", "res.csv", "run.2024-05-01", "res.npz.bak"])
+def test_save_refuses_another_suffix(name: str, tmp_path: Path) -> None:
+    path = tmp_path / name
+    suffix = Path(name).suffix
+    with pytest.raises(ValueError) as info:
+        hand_made().save(path)
+    assert str(info.value) == (
+        f"path {str(path)!r} must end in '.npz' or have no suffix (a result is saved as a .npz "
+        f"archive), got suffix {suffix!r}"
+    )
+    assert list(tmp_path.iterdir()) == []  # nothing written, not even res.npz
+
+
 def _bad_files(tmp: Path, good: SimResult) -> dict[str, Path]:
     files: dict[str, Path] = {}
     data = good.save(tmp / "good.npz").read_bytes()

@@ -136,6 +136,18 @@ def test_stuck_fault_freezes_the_measurement() -> None:
     assert np.ptp(r.q[k0:, 2]) > 1e-3  # the joint itself kept moving
 
 
+def test_fault_parameters_are_stored_as_plain_numbers() -> None:
+    fault = SensorFault("dropout", joint=np.int64(2), t_start=1, probability=np.float32(0.5))
+    assert (type(fault.joint), type(fault.t_start), type(fault.probability)) == (int, float, float)
+    assert fault.to_dict() == {"kind": "dropout", "joint": 2, "t_start": 1.0, "probability": 0.5}
+    # the defaults of the parameters a kind does not use are accepted (the config files pass them)
+    assert SensorFault("stuck", joint=1, value=0.0, probability=1.0).to_dict() == {
+        "kind": "stuck",
+        "joint": 1,
+        "t_start": 0.0,
+    }
+
+
 def test_dropout_with_probability_one_is_stuck() -> None:
     stuck = run(Sensor(faults=(SensorFault("stuck", joint=1, t_start=0.2),)), t_final=0.4)
     drop = run(Sensor(faults=(SensorFault("dropout", joint=1, t_start=0.2),)), t_final=0.4, seed=9)
@@ -297,8 +309,72 @@ def test_levant_differentiator_converges_on_a_noise_free_run() -> None:
             lambda: Sensor(velocity="levant"),
             r"^velocity must be a velocity estimator, got 'levant'$",
         ),
+        # a stuck sensor freezes at its last reading: a value would be ignored, so it is refused
+        (
+            lambda: SensorFault("stuck", joint=1, value=0.3),
+            r"^fault value applies to kind='bias' only, got value=0\.3 with kind='stuck' "
+            r"\(a stuck sensor freezes at its last reading before t_start\)$",
+        ),
+        (
+            lambda: SensorFault("dropout", joint=1, value=0.3),
+            r"^fault value applies to kind='bias' only, got value=0\.3 with kind='dropout' "
+            r"\(a lost sample repeats the last reading\)$",
+        ),
+        (
+            lambda: SensorFault("bias", joint=1, value=0.1, probability=0.5),
+            r"^fault probability applies to kind='dropout' only, got probability=0\.5 with "
+            r"kind='bias'$",
+        ),
+        (
+            lambda: SensorFault("stuck", joint=1, probability=0.0),
+            r"^fault probability applies to kind='dropout' only, got probability=0\.0 with "
+            r"kind='stuck'$",
+        ),
+        # numbers that are not numbers: ValueError naming the parameter, never TypeError
+        (
+            lambda: SensorFault("stuck", joint=1, t_start="a"),
+            r"^fault t_start must be a finite time >= 0 s, got 'a'$",
+        ),
+        (
+            lambda: SensorFault("stuck", joint=1, t_start=None),
+            r"^fault t_start must be a finite time >= 0 s, got None$",
+        ),
+        (
+            lambda: SensorFault("stuck", joint=1, t_start=True),
+            r"^fault t_start must be a finite time >= 0 s, got True$",
+        ),
+        (lambda: SensorFault("bias", joint=1, value="a"), r"^fault value must be a number \(rad\), got 'a'$"),
+        (lambda: SensorFault("bias", joint=1, value=True), r"^fault value must be a number \(rad\), got True$"),
+        (
+            lambda: SensorFault("dropout", joint=1, probability="a"),
+            r"^fault probability must lie in \[0, 1\], got 'a'$",
+        ),
+        (
+            lambda: SensorFault("dropout", joint=1, probability=True),
+            r"^fault probability must lie in \[0, 1\], got True$",
+        ),
+        (lambda: SensorFault("bias", joint=True), r"^fault joint must be a joint number >= 1, got True$"),
+        (lambda: GaussianNoise("a"), r"^noise sigma must be finite and >= 0 \(rad\), got 'a'$"),
+        (lambda: GaussianNoise(None), r"^noise sigma must be finite and >= 0 \(rad\), got None$"),
+        (
+            lambda: GaussianNoise(True),
+            r"^noise sigma must be a number \(rad\) or one per joint, not a boolean, got True$",
+        ),
+        (
+            lambda: GaussianNoise((1e-3, True, 0.0)),
+            r"^noise sigma must be a number \(rad\) or one per joint, not a boolean, "
+            r"got \(0\.001, True, 0\.0\)$",
+        ),
+        (
+            lambda: DirtyDerivative(True),
+            r"^time_constant must be a number, not a boolean, got True$",
+        ),
+        (
+            lambda: LevantDifferentiator(lambda1=False),
+            r"^lambda1 must be a number, not a boolean, got False$",
+        ),
     ],
-)
+)  # fmt: skip
 def test_sensor_validation(build: Any, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         build()

@@ -152,12 +152,34 @@ class SimResult:
         )
 
     def save(self, path: str | os.PathLike[str]) -> Path:
-        """Save to a compressed ``.npz`` (arrays plus JSON params), written atomically."""
+        """Save to a compressed ``.npz`` (arrays plus JSON params), written atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Ends in ``.npz``, or has no suffix (``.npz`` is then added).
+
+        Returns
+        -------
+        Path
+            The file written.
+
+        Raises
+        ------
+        ValueError
+            If ``path`` has another suffix (``res.h5`` would otherwise be written as
+            ``res.npz``, a file the caller does not expect).
+        """
         import io
 
         p = Path(path)
-        if p.suffix != ".npz":
+        if p.suffix == "":
             p = p.with_suffix(".npz")
+        elif p.suffix != ".npz":
+            raise ValueError(
+                f"path {str(path)!r} must end in '.npz' or have no suffix (a result is saved as "
+                f"a .npz archive), got suffix {p.suffix!r}"
+            )
         buf = io.BytesIO()
         arrays = {name: getattr(self, name) for name in ("t", *SIGNALS)}
         meta = json.dumps({"params": self.params, "seed": self.seed})

@@ -37,7 +37,32 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
+def _real(value: object) -> float | None:
+    """``value`` as a float if it is a real number (not a bool, a string or an array), else
+    ``None``."""
+    if isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool | np.bool_
+    ):
+        return float(value)
+    return None
+
+
+def _has_bool(value: object) -> bool:
+    """Whether ``value`` is a boolean or a sequence or array holding one."""
+    if isinstance(value, bool | np.bool_):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.dtype == np.bool_ or (
+            value.dtype == object and any(_has_bool(v) for v in value.flat)
+        )
+    if isinstance(value, list | tuple):
+        return any(_has_bool(v) for v in value)
+    return False
+
+
 def _positive(name: str, value: float) -> float:
+    if isinstance(value, bool | np.bool_):
+        raise ValueError(f"{name} must be a number, not a boolean, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError) as exc:
@@ -162,9 +187,18 @@ class GaussianNoise:
     sigma: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
-        arr = np.atleast_1d(np.asarray(self.sigma, dtype=float))
+        bad = ValueError(f"noise sigma must be finite and >= 0 (rad), got {self.sigma!r}")
+        if _has_bool(self.sigma):
+            raise ValueError(
+                f"noise sigma must be a number (rad) or one per joint, not a boolean, "
+                f"got {self.sigma!r}"
+            )
+        try:
+            arr = np.atleast_1d(np.asarray(self.sigma, dtype=float))
+        except (TypeError, ValueError) as exc:
+            raise bad from exc
         if arr.ndim != 1 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
-            raise ValueError(f"noise sigma must be finite and >= 0 (rad), got {self.sigma!r}")
+            raise bad
         value: float | tuple[float, ...] = (
             float(arr[0]) if arr.size == 1 and np.ndim(self.sigma) == 0 else tuple(arr.tolist())
         )
@@ -194,8 +228,29 @@ class SensorFault:
     """A position-sensor fault on one joint (1-based ``joint``) from ``t_start`` (s) on.
 
     - ``bias``: the measurement is offset by ``value`` (rad);
-    - ``stuck``: the measurement freezes at its value just before ``t_start``;
+    - ``stuck``: the measurement freezes at its last reading before ``t_start`` (at
+      ``t_start = 0``, at the first reading), as a jammed encoder does. It freezes where it
+      was, not at a chosen angle (the measurement is formed in the compiled loop from the
+      true angle, which is not known in advance), so ``value`` is rejected rather than
+      silently ignored;
     - ``dropout``: each sample is lost with ``probability``; a lost sample repeats the last one.
+
+    ``value`` applies to ``bias`` only and ``probability`` to ``dropout`` only: a fault of
+    another kind must leave them at their defaults (0 and 1), or a :class:`ValueError` names
+    the parameter. Numbers must be real numbers, not booleans or strings.
+
+    Parameters
+    ----------
+    kind : {"bias", "stuck", "dropout"}
+        The fault.
+    joint : int
+        Joint number, from 1.
+    t_start : float, default 0
+        Onset (s), finite and >= 0.
+    value : float, default 0
+        Bias (rad), finite; ``bias`` only.
+    probability : float, default 1
+        Share of samples lost, in [0, 1]; ``dropout`` only.
     """
 
     kind: FaultKind
@@ -207,14 +262,42 @@ class SensorFault:
     def __post_init__(self) -> None:
         if self.kind not in ("bias", "stuck", "dropout"):
             raise ValueError(f"fault kind must be 'bias', 'stuck' or 'dropout', got {self.kind!r}")
-        if not isinstance(self.joint, int | np.integer) or self.joint < 1:
+        if (
+            not isinstance(self.joint, int | np.integer)
+            or isinstance(self.joint, bool)
+            or self.joint < 1
+        ):
             raise ValueError(f"fault joint must be a joint number >= 1, got {self.joint!r}")
-        if not math.isfinite(self.t_start) or self.t_start < 0:
+        t_start = _real(self.t_start)
+        if t_start is None or not math.isfinite(t_start) or t_start < 0:
             raise ValueError(f"fault t_start must be a finite time >= 0 s, got {self.t_start!r}")
-        if not math.isfinite(self.value):
+        value = _real(self.value)
+        if value is None:
+            raise ValueError(f"fault value must be a number (rad), got {self.value!r}")
+        if not math.isfinite(value):
             raise ValueError(f"fault value must be finite, got {self.value!r}")
-        if not 0.0 <= self.probability <= 1.0:
+        probability = _real(self.probability)
+        if probability is None or not 0.0 <= probability <= 1.0:
             raise ValueError(f"fault probability must lie in [0, 1], got {self.probability!r}")
+        if self.kind != "bias" and value != 0.0:
+            why = (
+                "a stuck sensor freezes at its last reading before t_start"
+                if self.kind == "stuck"
+                else "a lost sample repeats the last reading"
+            )
+            raise ValueError(
+                f"fault value applies to kind='bias' only, got value={self.value!r} with "
+                f"kind={self.kind!r} ({why})"
+            )
+        if self.kind != "dropout" and probability != 1.0:
+            raise ValueError(
+                f"fault probability applies to kind='dropout' only, got "
+                f"probability={self.probability!r} with kind={self.kind!r}"
+            )
+        object.__setattr__(self, "joint", int(self.joint))
+        object.__setattr__(self, "t_start", t_start)
+        object.__setattr__(self, "value", value)
+        object.__setattr__(self, "probability", probability)
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"kind": self.kind, "joint": self.joint, "t_start": self.t_start}

@@ -18,6 +18,7 @@ cancellation cannot make the comparison fail or pass by luck).
 from __future__ import annotations
 
 import math
+import re
 import zlib
 from collections.abc import Callable
 from typing import Any
@@ -27,7 +28,18 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from slidingarm import FTSMC, NTSMC, PDSMC, TSMC, PlanarArm, SlidingModeController
+from slidingarm import (
+    FTSMC,
+    NTSMC,
+    PAPER_Q0,
+    PDSMC,
+    TSMC,
+    PaperReference,
+    PlanarArm,
+    SlidingModeController,
+    simulate,
+)
+from slidingarm.control import _kernels as CK
 from slidingarm.control.surfaces import DEFAULT_EPS_E, FastTerminalSurface
 
 ARM = PlanarArm.paper()
@@ -78,6 +90,120 @@ def test_defaults_are_built_with_the_study_gains() -> None:
     np.testing.assert_array_equal(c.k, np.full(N, 20.0))
     assert make("tsmc", "tanh").to_dict()["width"] == WIDTH
     assert make("ntsmc").to_dict()["gamma"] == pytest.approx(5 / 3)
+
+
+#: The entries of each controller's to_dict besides "controller" and "model": its own
+#: constructor's names, nothing of the internal packing (PDSMC runs as a fast-terminal surface
+#: with beta = 0, and TSMC as one with alpha = 0, in the compiled kernel).
+OWN_PARAMS: dict[str, dict[str, Any]] = {
+    "pdsmc": {"lam": 2.0},
+    "tsmc": {"beta": 2.0, "gamma": 3 / 5, "eps_e": DEFAULT_EPS_E},
+    "ftsmc": {"alpha": 2.0, "beta": 2.0, "gamma": 3 / 5, "eps_e": DEFAULT_EPS_E},
+    "ntsmc": {"beta": 2.0, "gamma": 5 / 3},
+}
+COMMON = {"k": 20.0, "switching": "sign", "law": "model", "reaching": "classic"}
+
+
+@pytest.mark.parametrize("name", list(CLASSES))
+def test_to_dict_names_exactly_the_controllers_own_parameters(name: str) -> None:
+    d = make(name).to_dict()
+    assert d == {"controller": name, **OWN_PARAMS[name], **COMMON, "model": ARM.to_dict()}
+    assert list(d) == ["controller", *OWN_PARAMS[name], *COMMON, "model"]
+    # options appear where they apply, in constructor order
+    st = make(name, "tanh", reaching="super-twisting", k2=5.0).to_dict()
+    assert list(st)[-7:] == ["k", "switching", "width", "law", "reaching", "k2", "model"]
+    assert (st["width"], st["k2"]) == (WIDTH, 5.0)
+
+
+def test_repr_names_the_controllers_own_parameters() -> None:
+    assert repr(PDSMC(ARM, lam=1, k=1)) == (
+        "PDSMC(lam=1.0, k=1.0, switching='sign', law='model', reaching='classic')"
+    )
+    assert repr(PDSMC(ARM, lam=[1, 2, 3], k=4, switching="tanh", width=0.1)) == (
+        "PDSMC(lam=[1.0, 2.0, 3.0], k=4.0, switching='tanh', width=0.1, law='model', "
+        "reaching='classic')"
+    )
+    assert repr(TSMC(ARM, beta=2, p=5, q=3, k=1)) == (
+        "TSMC(beta=2.0, gamma=0.6, eps_e=1e-09, k=1.0, switching='sign', law='model', "
+        "reaching='classic')"
+    )
+    assert repr(FTSMC(ARM, alpha=1, beta=2, gamma=0.5, k=1, eps_e=1e-6)) == (
+        "FTSMC(alpha=1.0, beta=2.0, gamma=0.5, eps_e=1e-06, k=1.0, switching='sign', "
+        "law='model', reaching='classic')"
+    )
+    assert repr(NTSMC(ARM, beta=2, gamma=1.5, k=1)) == (
+        "NTSMC(beta=2.0, gamma=1.5, k=1.0, switching='sign', law='model', reaching='classic')"
+    )
+    # the paper's non-terminal exponent is flagged in the record, and only when admitted
+    c = FTSMC(ARM, alpha=1, beta=2, gamma=5 / 3, k=1, allow_nonterminal=True)
+    assert c.to_dict()["allow_nonterminal"] is True
+    assert "allow_nonterminal=True" in repr(c)
+    assert "allow_nonterminal" not in make("ftsmc").to_dict()
+
+
+def test_a_bare_controller_describes_its_surface() -> None:
+    c = SlidingModeController(ARM, FastTerminalSurface(alpha=np.array(2.0)), k=1.0)
+    d = c.to_dict()
+    assert d["controller"] == "smc" and d["surface"] == "fast_terminal" and d["alpha"] == 2.0
+
+
+def test_pdsmc_still_runs_as_a_linear_fast_terminal_surface() -> None:
+    ci, cf, _, _ = PDSMC(ARM, lam=[1.0, 2.0, 3.0], k=4.0).compiled()
+    ft = FTSMC(ARM, alpha=[1.0, 2.0, 3.0], beta=1.0, gamma=0.5, k=4.0).compiled()
+    np.testing.assert_array_equal(ci, ft[0])
+    np.testing.assert_array_equal(cf[CK.CF_ALPHA], [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(cf[CK.CF_BETA], 0.0)
+
+
+def test_simulation_records_pdsmc_by_its_own_parameters() -> None:
+    c = PDSMC(ARM, lam=2.0, k=20.0, switching="tanh")
+    r = simulate(ARM, c, PaperReference(), q0=PAPER_Q0, t_final=0.01, dt=5e-4)
+    params = r.params["controller"]
+    assert params == c.to_dict()
+    assert params["lam"] == 2.0
+    assert not {"alpha", "beta", "gamma", "eps_e", "surface"} & set(params)
+
+
+@pytest.mark.parametrize(
+    ("name", "param", "value", "match"),
+    [
+        ("pdsmc", "lam", True, r"^lam must be a number or one number per joint, not a boolean, "
+         r"got True$"),
+        ("pdsmc", "k", True, r"^k must be a number or one number per joint, not a boolean, "
+         r"got True$"),
+        ("ftsmc", "alpha", [1.0, True, 1.0], r"^alpha must be a number or one number per joint, "
+         r"not a boolean, got \[1\.0, True, 1\.0\]$"),
+        ("tsmc", "beta", np.array([True, True, True]), r"^beta must be a number or one number "
+         r"per joint, not a boolean, got array\(\[ True,  True,  True\]\)$"),
+        ("ntsmc", "beta", np.True_, r"^beta must be a number or one number per joint, not a "
+         rf"boolean, got {re.escape(repr(np.True_))}$"),
+        ("ftsmc", "width", False, r"^width must be a number or one number per joint, not a "
+         r"boolean, got False$"),
+        ("ftsmc", "k2", True, r"^k2 must be a number or one number per joint, not a boolean, "
+         r"got True$"),
+        ("tsmc", "eps_e", True, r"^eps_e must be a number, not a boolean, got True$"),
+    ],
+)  # fmt: skip
+def test_boolean_gains_are_rejected(name: str, param: str, value: Any, match: str) -> None:
+    extra: dict[str, Any] = {param: value}
+    switching = "sign"
+    if param == "width":
+        switching = "tanh"
+    if param == "k2":
+        extra["reaching"] = "super-twisting"
+    with pytest.raises(ValueError, match=match):
+        make(name, switching, **extra)
+
+
+@pytest.mark.parametrize("name", ["tsmc", "ftsmc", "ntsmc"])
+def test_boolean_exponents_are_rejected(name: str) -> None:
+    gains = {k: v for k, v in GAINS[name].items() if k not in ("p", "q")}
+    with pytest.raises(ValueError, match=r"^gamma must be a number, not a boolean, got True$"):
+        CLASSES[name](ARM, **gains, gamma=True)
+    with pytest.raises(
+        ValueError, match=r"^p and q must be positive odd integers, got p=True, q=1$"
+    ):
+        CLASSES[name](ARM, **gains, p=True, q=1)
 
 
 @pytest.mark.parametrize("name", ["tsmc", "ftsmc"])

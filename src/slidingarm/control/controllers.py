@@ -18,7 +18,7 @@ sat(s/ε)}, or the super-twisting one :math:`r = k_1\\mathrm{sig}(s)^{1/2} + w`,
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,6 +27,7 @@ from slidingarm.control import _kernels as CK
 from slidingarm.control.surfaces import (
     DEFAULT_EPS_E,
     FastTerminal,
+    FastTerminalSurface,
     LinearSurface,
     NonsingularTerminal,
     Surface,
@@ -61,7 +62,8 @@ SWITCHING_LAWS: dict[str, int] = {
 _LAWS: dict[str, int] = {"model": CK.LAW_MODEL, "paper": CK.LAW_PAPER}
 _REACHING: dict[str, int] = {"classic": CK.REACH_CLASSIC, "super-twisting": CK.REACH_SUPER_TWISTING}
 
-#: Boundary-layer width used by ``tanh``/``sat`` when none is given (rad/s, the unit of s).
+#: Boundary-layer width used by ``tanh``/``sat`` when none is given, in the unit of ``s``
+#: (rad/s; rad for :class:`NTSMC`).
 DEFAULT_WIDTH = 0.05
 
 
@@ -228,9 +230,23 @@ class SlidingModeController:
         """``(ci, cf, arm, g)``: the arrays the compiled loop takes (copies)."""
         return self._ci.copy(), self._cf.copy(), self._arm.copy(), self._g
 
+    def _surface_params(self) -> dict[str, Any]:
+        """The surface's entries of :meth:`to_dict`: here the surface's own description
+        (with its ``"surface"`` kind); the named controllers give their constructor's names."""
+        return self._surface.to_dict()
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able parameters, including the nominal model."""
-        d: dict[str, Any] = {"controller": self.name, **self._surface.to_dict()}
+        """JSON-able parameters, including the nominal model.
+
+        The keys are the constructor's parameter names: ``controller`` (the class's
+        :attr:`name`), the surface's parameters (``lam`` for :class:`PDSMC`; ``alpha``,
+        ``beta``, ``gamma``, ``eps_e`` for the terminal ones, ``allow_nonterminal`` only when
+        set; the surface's own description for a bare :class:`SlidingModeController`), then
+        ``k``, ``switching``, ``width`` (not with ``sign``), ``law``, ``reaching``, ``k2``
+        (super-twisting only) and ``model``. ``gamma`` is the exponent whether it was given
+        as ``gamma`` or as ``(p, q)``.
+        """
+        d: dict[str, Any] = {"controller": self.name, **self._surface_params()}
         d["k"] = _tolist(self._k)
         d["switching"] = self._switching
         if self._width is not None:
@@ -350,7 +366,12 @@ def _tolist(x: FloatArray) -> float | list[float]:
 
 
 class PDSMC(SlidingModeController):
-    """PD sliding-mode control: :math:`s = \\dot e + \\lambda e`, :math:`\\nu = \\lambda\\dot e`."""
+    """PD sliding-mode control: :math:`s = \\dot e + \\lambda e`, :math:`\\nu = \\lambda\\dot e`.
+
+    ``lam`` :math:`\\lambda > 0` (1/s), a scalar or one per joint. Internally the linear surface
+    is the fast-terminal one with :math:`\\alpha = \\lambda, \\beta = 0`; :meth:`to_dict` and
+    ``repr`` name ``lam`` and nothing of that packing.
+    """
 
     name = "pdsmc"
 
@@ -368,6 +389,7 @@ class PDSMC(SlidingModeController):
     ) -> None:
         surface = LinearSurface(lam)
         lam_a = surface.alpha
+        self._lam = lam_a
         if isinstance(model, PlanarArm) and lam_a.ndim == 1 and lam_a.shape[0] != model.n:
             # named here: the linear surface stores lam in the alpha row
             raise ValueError(
@@ -384,6 +406,19 @@ class PDSMC(SlidingModeController):
             reaching=reaching,
             k2=k2,
         )
+
+    def _surface_params(self) -> dict[str, Any]:
+        return {"lam": _tolist(self._lam)}
+
+
+def _terminal_params(surface: Surface, allow_nonterminal: bool, *, alpha: bool) -> dict[str, Any]:
+    """``to_dict`` entries of TSMC (``alpha=False``) and FTSMC: their own parameter names."""
+    ft = cast(FastTerminalSurface, surface)
+    d: dict[str, Any] = {"alpha": _tolist(ft.alpha)} if alpha else {}
+    d |= {"beta": _tolist(ft.beta), "gamma": ft.gamma, "eps_e": ft.eps_e}
+    if allow_nonterminal:
+        d["allow_nonterminal"] = True
+    return d
 
 
 class TSMC(SlidingModeController):
@@ -415,9 +450,13 @@ class TSMC(SlidingModeController):
         surface = TerminalSurface(
             beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
         )
+        self._allow_nonterminal = bool(allow_nonterminal)
         super().__init__(
             model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
         )
+
+    def _surface_params(self) -> dict[str, Any]:
+        return _terminal_params(self._surface, self._allow_nonterminal, alpha=False)
 
 
 class FTSMC(SlidingModeController):
@@ -450,9 +489,13 @@ class FTSMC(SlidingModeController):
         surface = FastTerminal(
             alpha, beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
         )
+        self._allow_nonterminal = bool(allow_nonterminal)
         super().__init__(
             model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
         )
+
+    def _surface_params(self) -> dict[str, Any]:
+        return _terminal_params(self._surface, self._allow_nonterminal, alpha=True)
 
 
 class NTSMC(SlidingModeController):
@@ -484,3 +527,7 @@ class NTSMC(SlidingModeController):
         super().__init__(
             model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
         )
+
+    def _surface_params(self) -> dict[str, Any]:
+        d = self._surface.to_dict()
+        return {"beta": d["beta"], "gamma": d["gamma"]}

@@ -46,8 +46,29 @@ FloatArray = NDArray[np.float64]
 DEFAULT_EPS_E = 1e-9
 
 
+def _has_bool(value: object) -> bool:
+    """Whether ``value`` is a boolean or a sequence or array holding one."""
+    if isinstance(value, bool | np.bool_):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.dtype == np.bool_ or (
+            value.dtype == object and any(_has_bool(v) for v in value.flat)
+        )
+    if isinstance(value, list | tuple):
+        return any(_has_bool(v) for v in value)
+    return False
+
+
 def gain(name: str, value: ArrayLike, *, allow_zero: bool = False) -> FloatArray:
-    """Validate a gain: a finite scalar or 1-D vector, > 0 (or >= 0 with ``allow_zero``)."""
+    """Validate a gain: a finite scalar or 1-D vector, > 0 (or >= 0 with ``allow_zero``).
+
+    Booleans are rejected (``k=True`` is a mistake, not a gain of 1), as the configuration
+    files do.
+    """
+    if _has_bool(value):
+        raise ValueError(
+            f"{name} must be a number or one number per joint, not a boolean, got {value!r}"
+        )
     try:
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -94,6 +115,8 @@ def exponent(
         if (
             not isinstance(p, int | np.integer)
             or not isinstance(q, int | np.integer)
+            or isinstance(p, bool)
+            or isinstance(q, bool)
             or p <= 0
             or q <= 0
             or p % 2 == 0
@@ -103,6 +126,8 @@ def exponent(
         ratio = Fraction(int(q), int(p)) if high <= 1.0 else Fraction(int(p), int(q))
         value = float(ratio)
     else:
+        if isinstance(gamma, bool | np.bool_):
+            raise ValueError(f"{name} must be a number, not a boolean, got {gamma!r}")
         try:
             value = float(gamma)
         except (TypeError, ValueError) as exc:
@@ -229,6 +254,8 @@ def FastTerminal(
 
 
 def _eps(eps_e: float) -> float:
+    if isinstance(eps_e, bool | np.bool_):
+        raise ValueError(f"eps_e must be a number, not a boolean, got {eps_e!r}")
     try:
         v = float(eps_e)
     except (TypeError, ValueError) as exc:

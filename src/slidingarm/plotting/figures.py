@@ -120,6 +120,18 @@ def _symlog_threshold(series: list[FloatArray]) -> float:
     return float(10.0 ** np.floor(np.log10(level)))
 
 
+def _sliding_unit(res: SimResult) -> str:
+    """Unit of a run's sliding variable: rad for the nonsingular terminal surface (NTSMC,
+    :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`), rad/s for the others
+    (:math:`s = \\dot e + \\dots`) and for a run whose params do not name its controller."""
+    ctrl = res.params.get("controller")
+    if isinstance(ctrl, Mapping) and (
+        ctrl.get("controller") == "ntsmc" or ctrl.get("surface") == "nonsingular_terminal"
+    ):
+        return "rad"
+    return "rad/s"
+
+
 def _draw(
     a: Axes,
     t: FloatArray,
@@ -161,11 +173,13 @@ def _joint_plot(
     reference: Callable[[SimResult], FloatArray] | None = None,
     window: float | None = None,
     yscale: Literal["linear", "log", "symlog"] = "linear",
+    symlog_unit: str = "",
     zero_line: bool = False,
     band: bool = True,
     max_points: int = MAX_POINTS,
 ) -> Figure:
-    """Draw ``signal`` (shape (T, n)) of every run, one panel per joint."""
+    """Draw ``signal`` (shape (T, n)) of every run, one panel per joint; ``symlog_unit``
+    follows the linear half-width written on a symlog panel (empty: no unit)."""
     items, n = _items(results)
     chosen = _joints(joints, n)
     with matplotlib.rc_context(RC):
@@ -210,7 +224,8 @@ def _joint_plot(
                     a.text(
                         0.995,
                         0.97,
-                        f"symlog axis, linear for |s| < {pow10_text(thr)} rad/s",
+                        f"symlog axis, linear for |s| < {pow10_text(thr)}"
+                        + (f" {symlog_unit}" if symlog_unit else ""),
                         transform=a.transAxes,
                         ha="right",
                         va="top",
@@ -342,17 +357,26 @@ def plot_sliding(
     :math:`k\\,\\Delta t` under sign switching), so the default ``scale="symlog"`` shows the
     reaching phase on log decades and the band on a linear stretch around 0, whose half-width
     is written in each panel. Other parameters as :func:`plot_tracking`.
+
+    The unit of ``s`` depends on the surface: rad/s for :math:`s = \\dot e + \\dots` (PDSMC,
+    TSMC, FTSMC), rad for NTSMC's :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}` (read
+    from each run's ``params["controller"]``; a run without them counts as rad/s). The axis
+    carries the unit the runs share, or ``(rad/s; NTSMC: rad)`` when NTSMC is drawn with others.
     """
     if scale not in ("symlog", "linear"):
         raise ValueError(f"scale must be 'symlog' or 'linear', got {scale!r}")
+    units = {_sliding_unit(res) for res in results.values()}
+    unit = units.pop() if len(units) == 1 else ""
+    shown = unit or "rad/s; NTSMC: rad"
     return _joint_plot(
         results,
         ax=ax,
         joints=joints,
         title=title,
         signal=lambda r: r.s,
-        ylabel=lambda j: f"s{subscript(j)} (rad/s)",
+        ylabel=lambda j: f"s{subscript(j)} ({shown})",
         yscale=scale,
+        symlog_unit=unit,
         zero_line=True,
         max_points=max_points,
     )
