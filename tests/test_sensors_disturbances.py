@@ -535,6 +535,29 @@ def test_constant_torque_sets_the_boundary_layer_equilibrium(d: float) -> None:
             lambda: ModelMismatch(mass_error=math.nan),
             r"^mass_error must be a finite number or one per joint, got nan$",
         ),
+        # not numbers: named, never a bare conversion error; booleans are not numbers either
+        (
+            lambda: ConstantTorque("a"),
+            r"^constant disturbance value must be a finite number or one per joint, got 'a'$",
+        ),
+        (
+            lambda: ConstantTorque(True),
+            r"^constant disturbance value must be a finite number or one per joint, got True$",
+        ),
+        (
+            lambda: SinusoidalTorque("a"),
+            r"^sinusoidal disturbance amplitude must be a finite number or one per joint, got 'a'$",
+        ),
+        (
+            lambda: RandomTorque((1.0, "x", 2.0)),
+            r"^random disturbance sigma must be a finite number or one per joint, got \(1\.0, 'x', 2\.0\)$",
+        ),
+        (lambda: ModelMismatch(payload="a"), r"^payload must be a finite mass >= 0 kg, got 'a'$"),
+        (lambda: ModelMismatch(payload=True), r"^payload must be a finite mass >= 0 kg, got True$"),
+        (
+            lambda: ModelMismatch(length_error=[0.1, True, 0.0]),
+            r"^length_error must be a finite number or one per joint, got \[0\.1, True, 0\.0\]$",
+        ),
     ],
 )
 def test_disturbance_validation(build: Any, match: str) -> None:

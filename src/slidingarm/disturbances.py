@@ -33,9 +33,17 @@ FloatArray = NDArray[np.float64]
 def _per_joint(
     name: str, value: float | tuple[float, ...], *, nonneg: bool = False
 ) -> float | tuple[float, ...]:
-    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    message = f"{name} must be a finite number or one per joint, got {value!r}"
+    if isinstance(value, bool | str) or (
+        isinstance(value, list | tuple) and any(isinstance(v, bool | str) for v in value)
+    ):
+        raise ValueError(message)
+    try:
+        arr = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError):
+        raise ValueError(message) from None
     if arr.ndim != 1 or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be a finite number or one per joint, got {value!r}")
+        raise ValueError(message)
     if nonneg and np.any(arr < 0):
         raise ValueError(f"{name} must be >= 0, got {value!r}")
     return float(arr[0]) if np.ndim(value) == 0 else tuple(arr.tolist())
@@ -168,7 +176,7 @@ class ModelMismatch:
     length_error: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.payload) and self.payload >= 0):
+        if not (_finite_number(self.payload) and self.payload >= 0):
             raise ValueError(f"payload must be a finite mass >= 0 kg, got {self.payload!r}")
         for name in ("mass_error", "length_error"):
             v = _per_joint(name, getattr(self, name))
