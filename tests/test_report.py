@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 from matplotlib.figure import Figure
 
+from slidingarm.metrics import DEFAULT_CUTOFF_HZ, DEFAULT_DELTA_E, DEFAULT_DELTA_S, DEFAULT_WINDOW
 from slidingarm.plotting import FIGURES, save_figure
 from slidingarm.report import (
     PAPER_FIGURES,
@@ -21,6 +22,7 @@ from slidingarm.report import (
     scenario_kind,
     write_report,
 )
+from slidingarm.study.analysis import ALTERNATING, PAPER_MSE_SWITCHING
 
 PAPER_MSE = {"ftsmc": 0.1331, "tsmc": 0.1976, "pdsmc": 0.4698}
 SCENARIOS = ("A_sign", "B_tanh", "C_noise")
@@ -42,6 +44,7 @@ def _metrics() -> pd.DataFrame:
                 # PDSMC in the noise scenario never reaches its band
                 row["reaching_time"] = math.inf if (ctrl == "pdsmc" and si == 2) else 0.1
                 row["final_error"] = -3.8e-7
+                row["s_rms_late"] = 0.03 if si == 2 else 1e-3 * (1 + ci)
                 rows.append(row)
     return pd.DataFrame(rows)
 
@@ -64,6 +67,42 @@ def _grid(points: int) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
+
+
+def _chattering(tanh_alternation: tuple[float, float, float] = (0.0, 0.9, 0.92)) -> pd.DataFrame:
+    """A chattering table as :func:`slidingarm.study.analysis.chattering_table` writes it, with
+    the given share of reversing torque steps under tanh (PDSMC, TSMC, FTSMC)."""
+    alternating = [a >= ALTERNATING for a in tanh_alternation]
+    return pd.DataFrame(
+        {
+            "controller": list(CONTROLLERS),
+            "sign": [1.2e5, 1.3e5, 1.5e5],
+            "tanh": [300.0, 310.0, 0.0],
+            "ratio": [400.0, 419.4, math.inf],
+            "sign_late": [2.2e5, 2.5e5, 2.9e5],
+            "tanh_late": [1800.0 if a else 9.0 for a in alternating],
+            "sign_step_late": [170.0, 190.0, 230.0],
+            "tanh_step_late": [5.0 if a else 0.01 for a in alternating],
+            "sign_alternation_late": [1.0, 1.0, 1.0],
+            "tanh_alternation_late": list(tanh_alternation),
+            "sign_gain_late": [math.nan, 0.13, 0.14],
+            "tanh_gain_late": [math.nan] + [2.1 if a else 0.5 for a in alternating[1:]],
+        }
+    )
+
+
+def _section(md: str, heading: str) -> str:
+    return md.split(heading)[1].split("\n## ")[0]
+
+
+def _table_rows(section: str, first_cell: str) -> list[list[str]]:
+    """Cells of the markdown table rows of ``section`` whose first cell is ``first_cell``."""
+    rows = []
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("|") and cells[0] == first_cell:
+            rows.append(cells)
+    return rows
 
 
 def _figures(out: Path) -> dict[str, dict[str, Path]]:
@@ -95,15 +134,14 @@ def _context(out: Path, *, grid_points: int = 6, **changes: Any) -> ReportContex
                 "t_s_formula": [np.nan, 0.52],
                 "t_s_measured": [math.inf, 0.53],
                 "rel_error": [None, 0.019],
+                "band": [1e-4, 1e-4],
             }
         ),
-        "chattering": pd.DataFrame(
-            {"controller": list(CONTROLLERS), "sign": [1.2e5, 1.3e5, 1.5e5], "tanh": [300.0, 310.0, 0.0], "ratio": [400.0, 419.4, math.inf]}
-        ),
+        "chattering": _chattering(),
         "errata": pd.DataFrame(
             [
-                {"variant": "corrected", "description": "the default law", "mse_mean": 0.0125, "mse_joint1": 0.0044, "steady_state_error": 3e-6, "chattering": 1.5e5},
-                {"variant": "paper_exponent", "description": "p/q = 5/3: diverged at t = 0.12 s (joint 2)", "mse_mean": None, "mse_joint1": np.nan, "steady_state_error": None, "chattering": None},
+                {"variant": "corrected", "description": "the default law", "mse_mean": 0.0125, "mse_joint1": 0.0044, "steady_state_error": 3e-6, "chattering": 1.5e5, "scenario": "A_sign", "controller": "ftsmc"},
+                {"variant": "paper_exponent", "description": "p/q = 5/3: diverged at t = 0.12 s (joint 2)", "mse_mean": None, "mse_joint1": np.nan, "steady_state_error": None, "chattering": None, "scenario": "A_sign", "controller": "ftsmc"},
             ]
         ),
         "grid": _grid(grid_points),
@@ -166,6 +204,116 @@ def test_mse_table_has_the_paper_values_and_rankings(written: tuple[Path, str, s
     # ours: FTSMC 1e-3 < TSMC 2e-3 < PDSMC 3e-3 in scenario A
     assert "| A_sign | FTSMC | 0.001 | 0.001 | 1 | 0.1331 | 1 |" in section
     assert section.count("holds on the mean over joints: **yes**") == 3
+
+
+def test_paper_mse_stands_beside_its_own_case_only(written: tuple[Path, str, str]) -> None:
+    """The paper's MSE table is its sign-switching case: its values appear on the rows of the
+    sign scenario and nowhere else, and the text says which case they are from."""
+    _, md, _ = written
+    section = _section(md, "## Mean-square error")
+    assert f"its {PAPER_MSE_SWITCHING}-switching case" in section
+    paper_values = {format_value(v) for v in PAPER_MSE.values()}
+    for scen in SCENARIOS:
+        rows = _table_rows(section, scen)
+        assert len(rows) == len(CONTROLLERS)
+        for row in rows:
+            paper_cells = row[5:]
+            if scenario_kind(scen) == PAPER_MSE_SWITCHING:
+                assert paper_cells[0] in paper_values
+            else:
+                assert paper_cells == ["", ""], row
+    outside = md.replace(section, "")
+    assert not any(v in outside for v in ("0.4698", "0.1976", "0.1331"))
+
+
+def test_no_paper_columns_without_a_sign_scenario(tmp_path: Path) -> None:
+    metrics = _metrics()
+    metrics = metrics[metrics["scenario"] != "A_sign"]
+    md_path, _ = write_report(tmp_path, _context(tmp_path, metrics=metrics, figures={}))
+    section = _section(md_path.read_text(encoding="utf-8"), "## Mean-square error")
+    assert "paper MSE" not in section and "0.1331" not in section
+    assert "which no scenario of this study runs" in section
+
+
+def test_metric_thresholds_are_stated_from_metrics_module(written: tuple[Path, str, str]) -> None:
+    _, md, _ = written
+    section = _section(md, "## All metrics")
+    assert f"δ_s = {format_value(DEFAULT_DELTA_S)} rad/s" in section
+    assert f"δ_e = {format_value(DEFAULT_DELTA_E)} rad" in section
+    assert f"last {format_value(DEFAULT_WINDOW)} s" in section
+    assert f"above {format_value(DEFAULT_CUTOFF_HZ)} Hz" in section
+
+
+def test_reaching_time_not_applicable_under_noise(written: tuple[Path, str, str]) -> None:
+    _, md, _ = written
+    section = _section(md, "## All metrics")
+    header = next(ln for ln in section.splitlines() if ln.startswith("| controller"))
+    col = [c.strip() for c in header.strip("|").split("|")].index("reaching time (s)")
+    for scen in SCENARIOS:
+        sub = section.split(f"### {scen}")[1].split("### ")[0]
+        cells = [
+            [c.strip() for c in ln.strip().strip("|").split("|")][col]
+            for ln in sub.splitlines()
+            if ln.startswith("| ") and not ln.startswith("| controller")
+        ]
+        assert len(cells) == len(CONTROLLERS) * 4
+        if scenario_kind(scen) == "noise":
+            assert set(cells) == {"n/a"}
+            # the note gives the measured RMS of s beside delta_s
+            assert "Reaching times are not applicable" in sub and "RMS is 0.03 rad/s" in sub
+        else:
+            assert "n/a" not in cells and "not applicable" not in sub
+
+
+def test_convergence_band_column_is_not_called_threshold(written: tuple[Path, str, str]) -> None:
+    _, md, _ = written
+    section = _section(md, "## Finite-time convergence")
+    assert "band δ (rad)" in section and "threshold" not in section
+    assert "δ = 1e-4 rad in A_sign" in section  # from the table, not typed
+    checks = _section(md, "## Checks")
+    assert "| check | value | threshold | result |" in checks
+
+
+def test_errata_say_which_scenario_they_run(written: tuple[Path, str, str]) -> None:
+    _, md, _ = written
+    section = _section(md, "## The paper's errata, measured")
+    assert "Every variant runs FTSMC in the **A_sign** scenario" in section
+    header = next(ln for ln in section.splitlines() if ln.startswith("| variant"))
+    assert "scenario" not in header  # said once in the text instead
+
+
+def test_chattering_text_follows_the_post_transient_numbers(tmp_path: Path) -> None:
+    """Which controllers the text calls smooth or alternating under tanh comes from the
+    table, as does the cause it gives; nothing is claimed that the numbers do not show."""
+    for tanh_alt in ((0.0, 0.9, 0.92), (0.0, 0.0, 0.0), (0.0, 0.0, 0.92)):
+        out = tmp_path / "x".join(map(str, tanh_alt))
+        md_path, _ = write_report(out, _context(out, chattering=_chattering(tanh_alt), figures={}))
+        section = _section(md_path.read_text(encoding="utf-8"), "## Chattering")
+        late_rows = [r for c in ("PDSMC", "TSMC", "FTSMC") for r in _table_rows(section, c)]
+        assert (
+            sorted(r[1] for r in late_rows if r[1] in ("sign", "tanh"))
+            == ["sign"] * 3 + ["tanh"] * 3
+        )  # the post-transient table has both laws for every controller
+        flipping = {
+            c.upper() for c, a in zip(CONTROLLERS, tanh_alt, strict=True) if a >= ALTERNATING
+        }
+        smooth = {c.upper() for c, a in zip(CONTROLLERS, tanh_alt, strict=True) if a < ALTERNATING}
+        said_smooth = section.split("removes that for ")[1].split(" (")[0]
+        assert set(re.findall(r"[A-Z]+SMC", said_smooth)) == smooth
+        if flipping:
+            said_flipping = section.split("It does not for ")[1].split(":")[0]
+            assert set(re.findall(r"[A-Z]+SMC", said_flipping)) == flipping
+            assert "βγ|e|^(γ−1)·Ts exceeds 1" in section  # the cause, with the gain
+        else:
+            assert "It does not for" not in section and "exceeds 1" not in section
+
+
+def test_chattering_without_post_transient_columns(tmp_path: Path) -> None:
+    chattering = _chattering()[["controller", "sign", "tanh", "ratio"]]
+    md_path, _ = write_report(tmp_path, _context(tmp_path, chattering=chattering, figures={}))
+    section = _section(md_path.read_text(encoding="utf-8"), "## Chattering")
+    assert "| PDSMC | 1.2e5 | 300 | 400 |" in section
+    assert "After the transient" not in section and "removes" not in section
 
 
 def test_no_inf_or_nan_text_anywhere(written: tuple[Path, str, str]) -> None:

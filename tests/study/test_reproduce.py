@@ -15,12 +15,14 @@ import pytest
 
 import slidingarm
 from slidingarm.config import load_scenario
-from slidingarm.metrics import METRIC_COLUMNS
+from slidingarm.metrics import DEFAULT_DELTA_E, DEFAULT_DELTA_S, METRIC_COLUMNS
 from slidingarm.plotting import FIGURES
+from slidingarm.report import format_value, scenario_kind
 from slidingarm.study import SCENARIOS, StudyOutput, load_shipped, reproduce, run_scenario
 from slidingarm.study import analysis as A
 from slidingarm.study import output as O
 from slidingarm.study.output import MANIFEST, OutputError, Staging
+from slidingarm.study.reproduce import ERRATA_SCENARIO
 
 CONTROLLERS = ("pdsmc", "tsmc", "ftsmc")
 N_SAMPLES = 9001  # 4.5 s at 5e-4 s, both ends included
@@ -87,6 +89,13 @@ def test_metrics_csv(metrics: pd.DataFrame) -> None:
     assert set(METRIC_COLUMNS) <= set(metrics.columns)
     assert set(metrics.joint) == {"1", "2", "3", "mean"}
     assert not metrics[list(METRIC_COLUMNS)].isna().any().any()
+    # the post-transient columns: finite, except the terminal gain of a controller without one
+    assert set(A.LATE_COLUMNS) <= set(metrics.columns)
+    others = [c for c in A.LATE_COLUMNS if c != "terminal_gain_late"]
+    assert np.isfinite(metrics[others].to_numpy()).all()
+    gain = metrics.set_index("controller")["terminal_gain_late"]
+    assert gain.loc["pdsmc"].isna().all()
+    assert np.isfinite(gain.loc[["tsmc", "ftsmc"]].to_numpy()).all()
 
 
 def test_figures(study: tuple[Path, StudyOutput]) -> None:
@@ -107,6 +116,81 @@ def test_report(study: tuple[Path, StudyOutput]) -> None:
     assert len(sources) >= len(SCENARIOS) * len(FIGURES)
     assert all(s.startswith("data:image/") for s in sources), "the HTML embeds its images"
     assert not re.search(r"""(src|href)=["'](https?:|//|file:)""", html), "no external resource"
+
+
+def _md_section(out: Path, heading: str) -> str:
+    md = (out / "report.md").read_text(encoding="utf-8")
+    return md.split(heading)[1].split("\n## ")[0]
+
+
+def _rows(section: str) -> list[list[str]]:
+    return [
+        [c.strip() for c in line.strip().strip("|").split("|")]
+        for line in section.splitlines()
+        if line.startswith("| ") and not line.startswith("|---")
+    ]
+
+
+def test_report_paper_mse_beside_the_sign_rows_only(study: tuple[Path, StudyOutput]) -> None:
+    section = _md_section(study[0], "## Mean-square error")
+    paper = {format_value(v) for v in A.PAPER_MSE.values()}
+    rows = [r for r in _rows(section) if r[0] in SCENARIOS]
+    assert len(rows) == len(SCENARIOS) * len(CONTROLLERS)
+    for row in rows:
+        beside = [c for c in row[5:] if c]
+        if scenario_kind(row[0]) == A.PAPER_MSE_SWITCHING:
+            assert beside and beside[0] in paper, row
+        else:
+            assert not beside, row
+    assert any(scenario_kind(r[0]) == A.PAPER_MSE_SWITCHING for r in rows)
+
+
+def test_report_chattering_after_the_transient(study: tuple[Path, StudyOutput]) -> None:
+    """chattering.csv has the post-transient columns, and the report's words follow them: the
+    controllers it calls smooth or alternating under tanh are those the numbers say, and it
+    blames the terminal gain only where that gain per sample exceeds 1."""
+    table = pd.read_csv(study[0] / "chattering.csv").set_index("controller")
+    late = [
+        f"{sw}_{k}" for k in ("late", "step_late", "alternation_late") for sw in ("sign", "tanh")
+    ]
+    assert np.isfinite(table[late].to_numpy()).all()
+    assert (table[late].to_numpy() >= 0).all()
+    assert table["sign_gain_late"].isna().loc["pdsmc"]
+    assert (table["sign_alternation_late"] >= A.ALTERNATING).all()  # sign flips every sample
+    section = _md_section(study[0], "## Chattering")
+    smooth = [c for c in table.index if table.loc[c, "tanh_alternation_late"] < A.ALTERNATING]
+    flipping = [c for c in table.index if c not in smooth]
+    said = section.split("removes that for ")[1].split(" (")[0]
+    assert set(re.findall(r"[A-Z]+SMC", said)) == {c.upper() for c in smooth}
+    for c in flipping:
+        # alternating under tanh goes with a terminal gain per sample above 1, and back
+        assert table.loc[c, "tanh_gain_late"] > 1
+        assert table.loc[c, "tanh_late"] > table.loc["pdsmc", "tanh_late"]
+    for c in smooth:
+        gain = table.loc[c, "tanh_gain_late"]
+        assert math.isnan(gain) or gain <= 1
+    if flipping:
+        said = section.split("It does not for ")[1].split(":")[0]
+        assert set(re.findall(r"[A-Z]+SMC", said)) == {c.upper() for c in flipping}
+        assert "βγ|e|^(γ−1)·Ts" in section
+
+
+def test_report_states_thresholds_and_noise_caveat(study: tuple[Path, StudyOutput]) -> None:
+    section = _md_section(study[0], "## All metrics")
+    assert f"δ_s = {format_value(DEFAULT_DELTA_S)} rad/s" in section
+    assert f"δ_e = {format_value(DEFAULT_DELTA_E)} rad" in section
+    noisy = section.split("### noise")[1].split("### ")[0]
+    assert "not applicable" in noisy
+    header = next(r for r in _rows(noisy) if r[0] == "controller")
+    col = header.index("reaching time (s)")
+    assert {r[col] for r in _rows(noisy) if r[0] != "controller"} == {"n/a"}
+    # the noise it cites is the study's: the RMS of s after the transient, beside delta_s
+    metrics = pd.read_csv(study[0] / "metrics.csv", dtype={"joint": str})
+    rms = metrics[(metrics.scenario == "noise") & (metrics.joint != "mean")]["s_rms_late"]
+    assert format_value(rms.min()) in noisy and format_value(rms.max()) in noisy
+    assert rms.max() > DEFAULT_DELTA_S / 2  # the noise on s is of the band's size
+    errata = _md_section(study[0], "## The paper's errata")
+    assert f"in the **{ERRATA_SCENARIO}** scenario" in errata
 
 
 def test_configs_are_the_scenarios_run(study: tuple[Path, StudyOutput]) -> None:
@@ -156,6 +240,19 @@ def test_ftsmc_steady_state(metrics: pd.DataFrame) -> None:
 
     assert worst("sign") <= 1e-4
     assert worst("tanh") <= 1e-5
+    # paper.toml's reasons: "from order 1e-5 rad under sign ... to order 1e-8 rad"
+    assert 3e-6 <= worst("sign") < 1e-4
+    assert 3e-9 <= worst("tanh") < 1e-7
+    assert worst("sign") / worst("tanh") >= 100
+
+
+def test_tanh_costs_little_tracking(metrics: pd.DataFrame) -> None:
+    """paper.toml's reasons: with tanh "the MSE stays within a percent of sign switching"."""
+    for c in CONTROLLERS:
+        for joint in ("mean", "1"):
+            assert mse(metrics, "tanh", c, joint) == pytest.approx(
+                mse(metrics, "sign", c, joint), rel=0.01
+            )
 
 
 @pytest.mark.parametrize("controller", CONTROLLERS)
@@ -193,6 +290,9 @@ def test_convergence_matches_theory(study: tuple[Path, StudyOutput]) -> None:
     assert set(conv.scenario) == {"sign", "tanh"}
     assert set(conv.controller) == {"tsmc", "ftsmc"}
     assert len(conv) == 2 * 2 * 3
+    assert "threshold" not in conv.columns  # the band delta, not a check's tolerance
+    for scenario, group in conv.groupby("scenario"):
+        assert (group.band == A.CONVERGENCE_BAND[str(scenario)]).all()
     assert (conv.t_reach > 0).all() and (conv.t_reach < 0.5).all()
     tanh = conv[conv.scenario == "tanh"]
     assert tanh.rel_error.abs().max() < 0.01
@@ -202,6 +302,7 @@ def test_convergence_matches_theory(study: tuple[Path, StudyOutput]) -> None:
 def test_errata(study: tuple[Path, StudyOutput]) -> None:
     errata = pd.read_csv(study[0] / "errata.csv").set_index("variant")
     assert list(errata.index) == [v for v, _, _ in A.ERRATA]
+    assert set(errata.scenario) == {ERRATA_SCENARIO} and set(errata.controller) == {"ftsmc"}
     correct = errata.loc["correct"]
     for variant in errata.index[1:]:
         row = errata.loc[variant]
@@ -222,6 +323,15 @@ def test_gain_grid(study: tuple[Path, StudyOutput]) -> None:
         assert not at.loc[(sw, 5.0, 2.0, 2.0), "ranking_holds"]  # k small: FTSMC reaches late
     ours = at.loc[("sign", 20.0, 2.0, 2.0)]
     assert ours.mse_ftsmc == pytest.approx(0.0125, abs=5e-5)
+    # the structural claims of paper.toml's reasons about the grid
+    assert not (grid.ranking_holds & (grid.lam_alpha > grid.beta)).any()  # never with alpha > beta
+    assert not grid[grid.lam_alpha == 5.0].ranking_holds.any()  # never at alpha = 5
+    a5b1 = grid[(grid.lam_alpha == 5.0) & (grid.beta == 1.0)]
+    assert (a5b1.mse_pdsmc < a5b1.mse_tsmc).all()  # PDSMC beats TSMC at every k
+    a2b5 = grid[(grid.lam_alpha == 2.0) & (grid.beta == 5.0)]
+    k_max = max(A.GRID_K)
+    assert (a2b5[a2b5.k < k_max].mse_tsmc < a2b5[a2b5.k < k_max].mse_ftsmc).all()
+    assert (a2b5[a2b5.k == k_max].mse_tsmc > a2b5[a2b5.k == k_max].mse_ftsmc).all()
 
 
 # ---------------------------------------------------------------------------- atomicity

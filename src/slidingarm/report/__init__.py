@@ -1,9 +1,12 @@
 """The study's report: ``report.md`` (GitHub-flavoured markdown) and a self-contained
 ``report.html``, written from a :class:`ReportContext` by :func:`write_report`.
 
-The report only formats what the study computed: the MSE beside the paper's, the gains and noise
-with their reasons, the checks, finite-time convergence, the sign/tanh chattering contrast, the
-paper's errata and their measured cost, the gain grid, every metric and every figure.
+The report only formats what the study computed: the MSE beside the paper's (beside the sign
+scenario only, the case of the paper's MSE table), the gains and noise with their reasons, the
+checks, finite-time convergence, the sign/tanh chattering contrast over the whole run and after the
+transient, the paper's errata and their measured cost, the gain grid, every metric (with the
+thresholds of :mod:`slidingarm.metrics`) and every figure. Every number in its prose comes from
+those tables or from the library's constants.
 """
 
 from __future__ import annotations

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -11,6 +12,13 @@ from typing import Any
 
 import pandas as pd
 
+from slidingarm.metrics import (
+    DEFAULT_CUTOFF_HZ,
+    DEFAULT_DELTA_E,
+    DEFAULT_DELTA_S,
+    DEFAULT_WINDOW,
+    METRIC_COLUMNS,
+)
 from slidingarm.report._context import ReportContext
 from slidingarm.report._format import (
     COLUMN_LABELS,
@@ -20,6 +28,7 @@ from slidingarm.report._format import (
     is_missing,
     markdown_table,
 )
+from slidingarm.study.analysis import ALTERNATING, LATE_FRACTION, PAPER_MSE_SWITCHING
 
 __all__ = ["PAPER_FIGURES", "FigureBlock", "build_blocks", "scenario_kind"]
 
@@ -297,10 +306,16 @@ def _reproduce(ctx: ReportContext) -> str:
     return "\n".join(lines)
 
 
+def _paper_scenarios(scenarios: Sequence[str]) -> list[str]:
+    """The scenarios of the paper's MSE table's case (:data:`PAPER_MSE_SWITCHING`)."""
+    return [s for s in scenarios if scenario_kind(s) == PAPER_MSE_SWITCHING]
+
+
 def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
     order_all = [c for c in sorted(ctx.paper_mse, key=lambda c: ctx.paper_mse[c])]
     ref = order_all[0] if order_all else None
     ref_label = controller_label(ref) if ref else "best"
+    beside = _paper_scenarios(scenarios) if ctx.paper_mse else []
     lines = [
         "## Mean-square error beside the paper's",
         "",
@@ -311,15 +326,29 @@ def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
         f"{_order_text(order_all)}.",
         "",
     ]
+    if ctx.paper_mse:
+        where = (
+            f"so its values stand beside the {', '.join(f'**{s}**' for s in beside)} rows only"
+            if beside
+            else "which no scenario of this study runs, so they are not shown"
+        )
+        lines += [
+            f"The paper's MSE table belongs to its {PAPER_MSE_SWITCHING}-switching case (its "
+            "section with the sign function, after Figs. 3–9; the tanh and noise cases publish "
+            f"no MSE), {where}.",
+            "",
+        ]
     header = [
         "scenario",
         "controller",
         "MSE joint 1 (rad²)",
         "MSE mean (rad²)",
         f"mean ÷ {ref_label}",
-        "paper MSE",
-        f"paper ÷ {ref_label}",
     ]
+    align = ["l", "l", "r", "r", "r"]
+    if beside:
+        header += [f"paper MSE ({PAPER_MSE_SWITCHING})", f"paper ÷ {ref_label}"]
+        align += ["r", "r"]
     rows = []
     for scen in scenarios:
         controllers = [
@@ -332,25 +361,27 @@ def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
         for ctrl in controllers:
             j1 = _mse(ctx.metrics, scen, ctrl, "1")
             mean = _mse(ctx.metrics, scen, ctrl, "mean")
-            paper = ctx.paper_mse.get(ctrl)
             ratio = mean / ref_mean if (mean is not None and ref_mean) else None
-            paper_ratio = (
-                paper / ctx.paper_mse[ref]
-                if (paper is not None and ref and ctx.paper_mse[ref])
-                else None
-            )
-            rows.append(
-                [
-                    scen,
-                    controller_label(ctrl),
-                    format_value(j1),
-                    format_value(mean),
-                    format_value(ratio),
-                    format_value(paper),
-                    format_value(paper_ratio),
-                ]
-            )
-    lines.append(markdown_table(header, rows, align=["l", "l", "r", "r", "r", "r", "r"]))
+            row = [
+                scen,
+                controller_label(ctrl),
+                format_value(j1),
+                format_value(mean),
+                format_value(ratio),
+            ]
+            if beside:
+                if scen in beside:
+                    paper = ctx.paper_mse.get(ctrl)
+                    paper_ratio = (
+                        paper / ctx.paper_mse[ref]
+                        if (paper is not None and ref and ctx.paper_mse[ref])
+                        else None
+                    )
+                    row += [format_value(paper), format_value(paper_ratio)]
+                else:
+                    row += ["", ""]
+            rows.append(row)
+    lines.append(markdown_table(header, rows, align=align))
     lines.append("")
     for scen in scenarios:
         order, holds_mean = _ranking(ctx, scen, "mean")
@@ -387,7 +418,20 @@ def _checks_section(ctx: ReportContext) -> str:
     return "\n".join(lines)
 
 
+def _bands_text(conv: pd.DataFrame) -> str:
+    """``"δ = 1e-4 rad in sign; 1e-6 rad in tanh"`` from the table's ``band`` column."""
+    if conv.empty or "band" not in conv.columns or "scenario" not in conv.columns:
+        return ""
+    parts = []
+    for scen in _unique(conv["scenario"].astype(str)):
+        bands = _unique(conv.loc[conv["scenario"].astype(str) == scen, "band"].dropna())
+        if bands:
+            parts.append(f"{', '.join(format_value(b) for b in bands)} rad in {scen}")
+    return "δ = " + "; ".join(parts) if parts else ""
+
+
 def _convergence_section(ctx: ReportContext) -> str:
+    bands = _bands_text(ctx.convergence)
     return "\n".join(
         [
             "## Finite-time convergence",
@@ -397,10 +441,11 @@ def _convergence_section(ctx: ReportContext) -> str:
             "t_s = |e|^(1−γ) / (β(1−γ)) for TSM and "
             "t_s = ln((α|e|^(1−γ) + β)/β) / (α(1−γ)) for FTSM (paper eq. 10 with the exponent "
             "corrected). A sampled loop never makes e exactly 0, so the table measures the "
-            "time to reach the band |e| < δ (δ = 1e-4 rad under sign, whose ripple is a few "
-            "1e-5 rad; δ = 1e-6 rad under tanh) and compares it with the formula's time for "
-            "the same band, t_s(|e_r|) − t_s(δ), e_r being the error at reaching. PDSMC's "
-            "linear surface converges only asymptotically, so it has no formula.",
+            "time to reach the band |e| < δ"
+            + (f" ({bands}, above the error ripple each switching leaves)" if bands else "")
+            + " and compares it with the formula's time for the same band, "
+            "t_s(|e_r|) − t_s(δ), e_r being the error at reaching. PDSMC's linear surface "
+            "converges only asymptotically, so it has no formula.",
             "",
             frame_table(
                 ctx.convergence,
@@ -413,37 +458,191 @@ def _convergence_section(ctx: ReportContext) -> str:
                     "t_s_formula",
                     "t_s_measured",
                     "rel_error",
+                    "band",
                 ],
             ),
         ]
     )
 
 
+def _fraction_text(fraction: float) -> str:
+    """``0.5`` → ``"the last half"``."""
+    return "the last half" if fraction == 0.5 else f"the last {100 * fraction:.0f} %"
+
+
+def _span(values: Sequence[float]) -> str:
+    """``"2.1"`` or ``"2.1–2.2"``: the formatted minimum and maximum."""
+    lo, hi = format_value(min(values)), format_value(max(values))
+    return lo if lo == hi else f"{lo}–{hi}"
+
+
+def _and(items: Sequence[str]) -> str:
+    """``["a", "b", "c"]`` → ``"a, b and c"``."""
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+#: The post-transient columns of the chattering table, per switching ``<sw>_<key>``.
+_LATE_KEYS = ("late", "step_late", "alternation_late", "gain_late")
+
+
 def _chattering_section(ctx: ReportContext) -> str:
-    return "\n".join(
-        [
-            "## Chattering: sign against tanh",
-            "",
-            "Chattering of the torque under sign and under tanh switching, per controller, as the "
-            "study measures it (SPEC §6), and their ratio. Sign switching flips the torque at "
-            "the sample rate; tanh's boundary layer removes that.",
-            "",
-            frame_table(ctx.chattering, ["controller", "sign", "tanh", "ratio"]),
-        ]
+    ch = ctx.chattering
+    lines = [
+        "## Chattering: sign against tanh",
+        "",
+        "Chattering is the total variation of the torque per second (SPEC §6), the mean over "
+        "joints, under sign and under tanh switching, per controller. The first table takes the "
+        "whole run, as the check on the sign/tanh ratio does.",
+        "",
+    ]
+    if ch.empty or not all(c in ch.columns for c in ("controller", "sign", "tanh", "ratio")):
+        lines.append(frame_table(ch, ["controller", "sign", "tanh", "ratio"]))
+        return "\n".join(lines)
+    lines.append(
+        markdown_table(
+            ["controller", "sign (N·m/s)", "tanh (N·m/s)", "ratio sign ÷ tanh"],
+            [
+                [
+                    controller_label(r["controller"]),
+                    format_value(r["sign"]),
+                    format_value(r["tanh"]),
+                    format_value(r["ratio"]),
+                ]
+                for _, r in ch.iterrows()
+            ],
+            align=["l", "r", "r", "r"],
+        )
+    )
+    late_cols = [f"{sw}_{k}" for k in _LATE_KEYS for sw in ("sign", "tanh")]
+    if not all(c in ch.columns for c in late_cols) or ch[late_cols].isna().all().all():
+        return "\n".join(lines)
+    rows = []
+    for _, r in ch.iterrows():
+        for sw in ("sign", "tanh"):
+            rows.append(
+                [controller_label(r["controller"]), sw]
+                + [format_value(r[f"{sw}_{k}"]) for k in _LATE_KEYS]
+            )
+    lines += [
+        "",
+        f"After the transient, over {_fraction_text(LATE_FRACTION)} of each run: the "
+        "chattering (mean over joints), the largest single torque step of any joint, the share "
+        "of consecutive steps that reverse (1 when the torque flips every sample, about 0 when "
+        "it is smooth, 2/3 for white noise; mean over joints) and the median over the window "
+        "of the terminal term's gain per sample βγ|e|^(γ−1)·Ts (Ts the sample time; mean over "
+        "joints; — without a terminal term).",
+        "",
+        markdown_table(
+            [
+                "controller",
+                "switching",
+                "chattering (N·m/s)",
+                "largest step (N·m)",
+                "reversing steps",
+                "βγ|e|^(γ−1)·Ts",
+            ],
+            rows,
+            align=["l", "l", "r", "r", "r", "r"],
+        ),
+        "",
+        _chattering_text(ch),
+    ]
+    return "\n".join(lines).rstrip()
+
+
+def _chattering_text(ch: pd.DataFrame) -> str:
+    """What the post-transient columns show, in words, with the study's numbers."""
+
+    def num(row: pd.Series, col: str) -> float:
+        value = row[col]
+        return math.nan if is_missing(value) else float(value)
+
+    rows = [r for _, r in ch.iterrows()]
+    sign_alt = [num(r, "sign_alternation_late") for r in rows]
+    smooth = [r for r in rows if num(r, "tanh_alternation_late") < ALTERNATING]
+    flipping = [r for r in rows if num(r, "tanh_alternation_late") >= ALTERNATING]
+    parts = []
+    if sign_alt and all(a >= ALTERNATING for a in sign_alt):
+        parts.append(
+            "Sign switching flips the torque at the sample rate for every controller "
+            f"(reversing steps {_span(sign_alt)})."
+        )
+    if smooth:
+        names = _and([controller_label(r["controller"]) for r in smooth])
+        values = [num(r, "tanh_late") for r in smooth]
+        parts.append(
+            f"tanh's boundary layer removes that for {names} ({_span(values)} N·m/s after "
+            "the transient)."
+        )
+    if flipping:
+        names = _and([controller_label(r["controller"]) for r in flipping])
+        late = [num(r, "tanh_late") for r in flipping]
+        steps = [num(r, "tanh_step_late") for r in flipping]
+        alt = [num(r, "tanh_alternation_late") for r in flipping]
+        parts.append(
+            f"It does not for {names}: under tanh their torque still alternates at the sample "
+            f"rate (reversing steps {_span(alt)}; {_span(late)} N·m/s after the transient, "
+            f"single steps of up to {format_value(max(steps))} N·m) — far less than under "
+            "sign, but not smooth."
+        )
+        gains = [num(r, "tanh_gain_late") for r in flipping]
+        sign_gains = [num(r, "sign_gain_late") for r in flipping]
+        if all(g > 1 for g in gains):
+            below = (
+                f"; under sign switching their error stays where it is below 1 "
+                f"({_span(sign_gains)}) and the switching itself dominates"
+                if all(g < 1 for g in sign_gains)
+                else ""
+            )
+            parts.append(
+                "The cause is the terminal term in discrete time, not the switching law: "
+                "near e = 0 the factor βγ|e|^(γ−1) of ė in ν grows without bound, and where "
+                "βγ|e|^(γ−1)·Ts exceeds 1 the sampled loop overshoots at every sample. Under "
+                f"tanh the error of {names} settles where βγ|e|^(γ−1)·Ts is above 1 (median "
+                f"{_span(gains)} over the window)"
+                + below
+                + ". The singularity guard caps the factor at βγ·ε_e^(γ−1)·Ts; only a cap "
+                "below 1, ε_e ≥ (βγ·Ts)^(1/(1−γ)), would stop the overshoot."
+            )
+    return " ".join(parts)
+
+
+def _errata_runs(errata: pd.DataFrame) -> tuple[str, list[str]]:
+    """A sentence naming the scenario (and controller) the errata runs use, and the columns
+    it makes redundant in the table."""
+    said: dict[str, str] = {}
+    for column in ("controller", "scenario"):
+        if column in errata.columns and not errata.empty:
+            values = [str(v) for v in _unique(errata[column].dropna())]
+            if len(values) == 1:
+                said[column] = values[0]
+    if "scenario" not in said:
+        return "", list(said)
+    scen = said["scenario"]
+    kind = scenario_kind(scen)
+    who = controller_label(said["controller"]) if "controller" in said else "the controller"
+    what = f": {_KIND_TEXT[kind]}" if kind else ""
+    return (
+        f"Every variant runs {who} in the **{scen}** scenario, with its gains and settings"
+        f"{what}. Only what the variant names differs.",
+        list(said),
     )
 
 
 def _errata_section(ctx: ReportContext) -> str:
+    runs, drop = _errata_runs(ctx.errata)
     return "\n".join(
         [
             "## The paper's errata, measured",
             "",
             _ERRATA_STATIC.strip(),
             "",
-            "A variant that diverged has no numbers (—); its description says what happened.",
+            (runs + " " if runs else "")
+            + "A variant that diverged has no numbers (—); its description says what happened.",
             "",
             frame_table(
-                ctx.errata,
+                ctx.errata.drop(columns=drop),
                 [
                     "variant",
                     "description",
@@ -519,22 +718,57 @@ def _grid_section(ctx: ReportContext) -> str:
     return "\n".join(lines).rstrip()
 
 
+#: Marks a metric that does not apply to a scenario.
+NOT_APPLICABLE = "n/a"
+
+
 def _metrics_section(ctx: ReportContext, scenarios: list[str]) -> str:
     lines = [
         "## All metrics",
         "",
-        "Definitions and thresholds are those of `slidingarm.metrics` (SPEC §6): times are "
-        "the first instant after which the signal stays in its band (never: it does not); "
-        "steady-state error is the largest |e| over the last 0.5 s; chattering is the total "
-        "variation of τ per second; the HF power share is the part of τ's power above 50 Hz.",
+        "Definitions and thresholds are those of `slidingarm.metrics` (SPEC §6), at its "
+        "defaults: the reaching time is the first instant after which |s_i| ≤ δ_s = "
+        f"{format_value(DEFAULT_DELTA_S)} rad/s for the rest of the run, the settling time the "
+        f"first instant after which |e_i| ≤ δ_e = {format_value(DEFAULT_DELTA_E)} rad for the "
+        "rest of the run (never: the signal is outside its band at the end); the steady-state "
+        f"error is the largest |e| over the last {format_value(DEFAULT_WINDOW)} s; chattering "
+        "is the total variation of τ per second; the HF power share is the part of τ's power "
+        f"above {format_value(DEFAULT_CUTOFF_HZ)} Hz. `metrics.csv` also holds, per joint, the "
+        "post-transient columns of the chattering section.",
     ]
     m = ctx.metrics
+    keep = ["controller", "joint", *METRIC_COLUMNS]
     for scen in scenarios:
-        sub = m[m["scenario"].astype(str) == scen].drop(columns=["scenario"])
+        sub = m[m["scenario"].astype(str) == scen]
         if sub.empty:
             continue
-        lines += ["", f"### {scen}", "", frame_table(sub, ["controller", "joint"])]
+        sub = sub[[c for c in keep if c in sub.columns]]
+        lines += ["", f"### {scen}", ""]
+        if scenario_kind(scen) == "noise" and "reaching_time" in sub.columns:
+            sub = sub.assign(reaching_time=NOT_APPLICABLE)
+            lines += [_noise_reaching_note(ctx, scen), ""]
+        lines.append(frame_table(sub, ["controller", "joint"]))
     return "\n".join(lines)
+
+
+def _noise_reaching_note(ctx: ReportContext, scen: str) -> str:
+    """Why the reaching time does not apply to a scenario with measurement noise."""
+    m = ctx.metrics
+    rms = ""
+    if "s_rms_late" in m.columns:
+        rows = m[(m["scenario"].astype(str) == scen) & (m["joint"].astype(str) != "mean")]
+        values = pd.to_numeric(rows["s_rms_late"], errors="coerce").dropna()
+        if not values.empty:
+            rms = (
+                f" (after the transient its RMS is {_span(list(values))} rad/s per joint, "
+                f"against δ_s = {format_value(DEFAULT_DELTA_S)} rad/s)"
+            )
+    return (
+        f"Reaching times are not applicable here ({NOT_APPLICABLE}): the controller computes s "
+        f"from the noisy measurements, so s carries the noise{rms} and keeps leaving the band "
+        "|s| ≤ δ_s until the end of the run; the time after which it stays inside would "
+        "measure the noise, not the reaching."
+    )
 
 
 def _figure_blocks(ctx: ReportContext, scenarios: list[str], out_dir: Path) -> list[Block]:

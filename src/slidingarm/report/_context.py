@@ -31,9 +31,11 @@ class ReportContext:
     metrics : DataFrame
         Long table, one row per (scenario, controller, joint): columns ``scenario``,
         ``controller``, ``joint`` (``"1"`` … ``"n"`` or ``"mean"``) and the metrics of
-        :data:`slidingarm.metrics.METRIC_COLUMNS` (``mse``, ``rmse``, …).
+        :data:`slidingarm.metrics.METRIC_COLUMNS` (``mse``, ``rmse``, …), optionally followed
+        by the post-transient :data:`slidingarm.study.analysis.LATE_COLUMNS`.
     paper_mse : Mapping[str, float]
-        The paper's published MSE by controller name, e.g. ``{"ftsmc": 0.1331, ...}``.
+        The paper's published MSE by controller name, e.g. ``{"ftsmc": 0.1331, ...}``: its
+        sign-switching case, so the report shows it beside the sign scenario only.
     gains : Mapping[str, Any]
         The gains shared by the study (values may be nested mappings).
     gain_reasons : str
@@ -42,12 +44,15 @@ class ReportContext:
         ``sigma``, the velocity estimator, the seed, … and ``"reasons"`` (markdown).
     convergence : DataFrame
         ``scenario, controller, joint, t_reach, e_at_reach, t_s_formula, t_s_measured,
-        rel_error``.
+        rel_error, band`` (``band``: the error band δ the times are measured to, rad).
     chattering : DataFrame
-        ``controller, sign, tanh, ratio``.
+        ``controller, sign, tanh, ratio`` (whole run) and, when the study measured them, the
+        post-transient ``<sw>_late, <sw>_step_late, <sw>_alternation_late, <sw>_gain_late`` for
+        ``<sw>`` in ``sign``, ``tanh`` (see :func:`slidingarm.study.analysis.chattering_table`).
     errata : DataFrame
-        ``variant, description, mse_mean, mse_joint1, steady_state_error, chattering``; the
-        numbers of a variant that diverged are missing (None/NaN) and its description says so.
+        ``variant, description, mse_mean, mse_joint1, steady_state_error, chattering`` and,
+        optionally, the ``scenario`` and ``controller`` the variants run; the numbers of a
+        variant that diverged are missing (None/NaN) and its description says so.
     grid : DataFrame
         ``switching, k, lam_alpha, beta, gamma, mse_pdsmc, mse_tsmc, mse_ftsmc,
         ranking_holds``.

@@ -17,18 +17,27 @@ import pandas as pd
 
 from slidingarm.config import ControllerSpec, Scenario, Setup
 from slidingarm.control.controllers import FTSMC, PDSMC, TSMC, SlidingModeController
-from slidingarm.control.surfaces import ftsm_convergence_time, tsm_convergence_time
+from slidingarm.control.surfaces import (
+    DEFAULT_EPS_E,
+    ftsm_convergence_time,
+    tsm_convergence_time,
+)
+from slidingarm.metrics import chattering as metric_chattering
 from slidingarm.metrics import summary
 from slidingarm.results import SimResult
 from slidingarm.simulate import SimulationError, simulate, simulate_batch
 
 __all__ = [
+    "ALTERNATING",
     "CONVERGENCE_BAND",
     "GRID_BETA",
     "GRID_K",
     "GRID_LINEAR",
+    "LATE_COLUMNS",
+    "LATE_FRACTION",
     "NOISE_BOUND",
     "PAPER_MSE",
+    "PAPER_MSE_SWITCHING",
     "RANKING",
     "SS_BOUND",
     "chattering_table",
@@ -36,12 +45,38 @@ __all__ = [
     "convergence_table",
     "errata_table",
     "gain_grid",
+    "late_metrics",
     "metrics_table",
     "simulate_setup",
 ]
 
-#: The paper's MSE table (SPEC §7), by controller.
+#: The paper's MSE table (SPEC §7), by controller. It belongs to the paper's sign-function case
+#: (its section "Fast terminal sliding mode control with sign function", after Figs. 3-9):
+#: :data:`PAPER_MSE_SWITCHING`.
 PAPER_MSE: dict[str, float] = {"ftsmc": 0.1331, "tsmc": 0.1976, "pdsmc": 0.4698}
+
+#: The switching function of the paper's case whose MSE table :data:`PAPER_MSE` is.
+PAPER_MSE_SWITCHING: str = "sign"
+
+#: "After the transient": the last ``LATE_FRACTION`` of each run, the samples with
+#: :math:`t_k \ge t_{T-1} - f\,(t_{T-1} - t_0)`. The reaching phase and the convergence on the
+#: surface (the convergence table) end well before the second half of the paper's 4.5 s run.
+LATE_FRACTION: float = 0.5
+
+#: Columns :func:`metrics_table` adds after :data:`slidingarm.metrics.METRIC_COLUMNS`, from
+#: :func:`late_metrics`.
+LATE_COLUMNS: tuple[str, ...] = (
+    "chattering_late",
+    "max_step_late",
+    "alternation_late",
+    "terminal_gain_late",
+    "s_rms_late",
+)
+
+#: A torque whose share of reversing steps (``alternation_late``) is at least this alternates at
+#: the sample rate: the share is 1 for a torque that flips every sample, about 0 for a smooth one
+#: and 2/3 for white noise.
+ALTERNATING: float = 0.5
 
 #: The paper's ranking, best first.
 RANKING: tuple[str, ...] = ("ftsmc", "tsmc", "pdsmc")
@@ -124,15 +159,97 @@ def _simulate_many(
 def metrics_table(results: Mapping[str, Mapping[str, SimResult]]) -> pd.DataFrame:
     """:func:`slidingarm.metrics.summary` of every run, stacked: one row per scenario ×
     controller × joint (``"1"`` … ``"n"`` and ``"mean"``), columns ``scenario``,
-    ``controller``, ``joint`` and :data:`slidingarm.metrics.METRIC_COLUMNS`."""
+    ``controller``, ``joint``, :data:`slidingarm.metrics.METRIC_COLUMNS` and then the
+    post-transient :data:`LATE_COLUMNS` of :func:`late_metrics` (whose ``mean`` row is, as
+    for the others, the mean over joints)."""
     frames = []
     for scenario, runs in results.items():
         for label, result in runs.items():
             table = summary(result)
+            late = late_metrics(result)
+            for name in LATE_COLUMNS:
+                values = late[name]
+                table[name] = np.append(values, np.mean(values))
             table.insert(0, "controller", label)
             table.insert(0, "scenario", scenario)
             frames.append(table)
     return pd.concat(frames, ignore_index=True)
+
+
+def _terminal_gain_params(result: SimResult) -> tuple[np.ndarray, float, float] | None:
+    r"""``(beta, gamma, eps_e)`` of a run whose surface has a terminal term
+    :math:`\beta\,\mathrm{sig}(e)^\gamma` with :math:`\beta > 0`, else None."""
+    params = result.params.get("controller", {})
+    if not isinstance(params, Mapping) or "beta" not in params or "gamma" not in params:
+        return None
+    # NTSMC's terminal term is on ė, not e; a bare controller names its surface
+    if params.get("controller") == "ntsmc" or params.get("surface", "fast_terminal") != (
+        "fast_terminal"
+    ):
+        return None
+    beta = _per_joint(params["beta"], result.n)
+    if not np.any(beta > 0):
+        return None
+    eps_e = float(params.get("eps_e", DEFAULT_EPS_E))
+    return beta, float(params["gamma"]), eps_e
+
+
+def late_metrics(result: SimResult, *, fraction: float = LATE_FRACTION) -> dict[str, np.ndarray]:
+    r"""Torque chattering and sliding variable after the transient, per joint.
+
+    The window is the last ``fraction`` of the run: the samples :math:`k \ge k_0`, :math:`k_0`
+    the first with :math:`t_k \ge t_{T-1} - f\,(t_{T-1} - t_0)`. With the applied torque
+    :math:`\tau_k`, :math:`k_0 \le k \le T-2` (the last row is never applied, as in
+    :mod:`slidingarm.metrics`), its steps :math:`\Delta_k = \tau_{k+1} - \tau_k` and the error
+    the controller sees :math:`\tilde e = \tilde q - q_d`:
+
+    - ``chattering_late``: :func:`slidingarm.metrics.chattering` on the window,
+      :math:`\sum_k |\Delta_k| / (t_{T-1} - t_{k_0})` (N·m/s);
+    - ``max_step_late``: the largest single step :math:`\max_k |\Delta_k|` (N·m);
+    - ``alternation_late``: the share of consecutive steps that reverse,
+      :math:`\#\{k : \Delta_k \Delta_{k-1} < 0\} / \#\{k\}` — 1 for a torque that flips every
+      sample, about 0 for a smooth torque, 2/3 for white noise;
+    - ``terminal_gain_late``: the median over the window of the terminal term's gain per
+      sample, :math:`\beta\gamma\max(|\tilde e_k|, \varepsilon_e)^{\gamma-1}\,T_s` (the factor
+      of :math:`\dot e` in :math:`\nu`, SPEC §3, times the sample time); above 1 the sampled
+      loop overshoots at every sample. NaN for a controller without a terminal term;
+    - ``s_rms_late``: the RMS of the sliding variable,
+      :math:`\sqrt{\mathrm{mean}_{k \ge k_0}\, s_k^2}` (rad/s).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        One array per name of :data:`LATE_COLUMNS` (NaN for a run of fewer than 3 samples).
+    """
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must be in (0, 1], got {fraction!r}")
+    t = np.asarray(result.t, dtype=float)
+    if t.shape[0] < 3:
+        return {name: np.full(result.n, math.nan) for name in LATE_COLUMNS}
+    tol = 1e-9 * (t[-1] - t[0])
+    k0 = int(np.searchsorted(t, t[-1] - fraction * (t[-1] - t[0]) - tol, side="left"))
+    k0 = min(k0, t.shape[0] - 3)  # at least two applied steps
+    tau = np.asarray(result.tau, dtype=float)
+    steps = np.diff(tau[k0:-1], axis=0)
+    reversing = steps[1:] * steps[:-1] < 0
+    out: dict[str, np.ndarray] = {
+        "chattering_late": np.asarray(metric_chattering(t[k0:], tau[k0:]), dtype=float),
+        "max_step_late": np.max(np.abs(steps), axis=0),
+        "alternation_late": (
+            np.mean(reversing, axis=0) if reversing.shape[0] else np.zeros(result.n)
+        ),
+    }
+    terminal = _terminal_gain_params(result)
+    if terminal is None:
+        out["terminal_gain_late"] = np.full(result.n, math.nan)
+    else:
+        beta, gamma, eps_e = terminal
+        e_seen = np.abs(result.q_meas[k0:] - result.q_ref[k0:])
+        gain = beta * gamma * np.maximum(e_seen, eps_e) ** (gamma - 1.0) * result.dt
+        out["terminal_gain_late"] = np.median(gain, axis=0)
+    s = np.asarray(result.s[k0:], dtype=float)
+    out["s_rms_late"] = np.sqrt(np.mean(s * s, axis=0))
+    return out
 
 
 def _mean_row(
@@ -172,7 +289,8 @@ def convergence(result: SimResult, controller: SlidingModeController) -> pd.Data
       :math:`t_s(\delta)` is 5 ms for :math:`\delta = 10^{-6}`);
     - ``t_s_measured``: from ``t_reach`` to the first sample where :math:`|e_i| < \delta` or
       :math:`e_i` has crossed zero;
-    - ``rel_error``: :math:`(t_{measured} - t_{formula}) / t_{formula}`.
+    - ``rel_error``: :math:`(t_{measured} - t_{formula}) / t_{formula}`;
+    - ``band``: the band :math:`\delta` (rad) used.
 
     Times that never happen are ``inf``.
     """
@@ -197,7 +315,7 @@ def convergence(result: SimResult, controller: SlidingModeController) -> pd.Data
             return float(tsm_convergence_time(x, beta[j], gamma))
 
         hit = np.flatnonzero((np.abs(sj) <= k[j] * dt) | (sj * sj[0] <= 0))
-        row: dict[str, Any] = {"joint": str(j + 1), "threshold": band}
+        row: dict[str, Any] = {"joint": str(j + 1), "band": band}
         if hit.size == 0:
             row.update(
                 t_reach=math.inf,
@@ -230,9 +348,9 @@ def convergence_table(
     setups: Mapping[str, Setup],
     scenarios: Iterable[str],
 ) -> pd.DataFrame:
-    """:func:`convergence` of every TSMC and FTSMC run of ``scenarios``, stacked with columns
+    r""":func:`convergence` of every TSMC and FTSMC run of ``scenarios``, stacked with columns
     ``scenario, controller, joint, t_reach, e_at_reach, t_s_formula, t_s_measured, rel_error,
-    threshold``."""
+    band`` (``band``: the error band :math:`\delta` of :data:`CONVERGENCE_BAND`, rad)."""
     frames = []
     for scenario in scenarios:
         for label, controller in setups[scenario].controllers.items():
@@ -250,7 +368,7 @@ def convergence_table(
         "t_s_formula",
         "t_s_measured",
         "rel_error",
-        "threshold",
+        "band",
     ]
     if not frames:
         return pd.DataFrame(columns=columns)
@@ -264,17 +382,51 @@ def convergence_table(
 def chattering_table(
     metrics: pd.DataFrame, *, sign: str = "sign", tanh: str = "tanh"
 ) -> pd.DataFrame:
-    """Total variation per second of the torque (mean over joints) with sign and with tanh
-    switching, per controller, and their ratio ``sign / tanh``."""
+    r"""The torque's chattering with sign and with tanh switching, per controller.
+
+    Columns, for each controller of scenario ``sign``:
+
+    - ``sign``, ``tanh``, ``ratio``: the total variation per second over the whole run (mean
+      over joints) under each switching, and ``sign / tanh``;
+    - after the transient (the :data:`LATE_COLUMNS` of :func:`late_metrics`, over the last
+      :data:`LATE_FRACTION` of the run), for each switching ``<sw>`` in ``sign``, ``tanh``:
+      ``<sw>_late`` (total variation per second, mean over joints), ``<sw>_step_late`` (the
+      largest single torque step of any joint, N·m), ``<sw>_alternation_late`` (share of
+      reversing steps, mean over joints) and ``<sw>_gain_late`` (median terminal gain per sample
+      :math:`\beta\gamma|e|^{\gamma-1}T_s`, mean over joints; NaN without a terminal term).
+
+    A post-transient value the metrics lack (a table without :data:`LATE_COLUMNS`) is NaN.
+    """
+    late = {"late": "chattering_late", "step_late": "max_step_late"}
+    late |= {"alternation_late": "alternation_late", "gain_late": "terminal_gain_late"}
+    columns = ["controller", "sign", "tanh", "ratio"]
+    columns += [f"{sw}_{key}" for key in late for sw in ("sign", "tanh")]
     rows = []
     labels = metrics.loc[metrics["scenario"] == sign, "controller"].drop_duplicates()
     for label in labels:
         a = float(_mean_row(metrics, sign, label)["chattering"])
         b = float(_mean_row(metrics, tanh, label)["chattering"])
-        rows.append(
-            {"controller": label, "sign": a, "tanh": b, "ratio": a / b if b > 0 else math.inf}
-        )
-    return pd.DataFrame(rows, columns=["controller", "sign", "tanh", "ratio"])
+        row: dict[str, Any] = {
+            "controller": label,
+            "sign": a,
+            "tanh": b,
+            "ratio": a / b if b > 0 else math.inf,
+        }
+        for sw, scenario in (("sign", sign), ("tanh", tanh)):
+            for key, column in late.items():
+                if column not in metrics.columns:
+                    row[f"{sw}_{key}"] = math.nan
+                elif key == "step_late":
+                    joints = metrics[
+                        (metrics["scenario"] == scenario)
+                        & (metrics["controller"] == label)
+                        & (metrics["joint"] != "mean")
+                    ]
+                    row[f"{sw}_{key}"] = float(joints[column].max())
+                else:
+                    row[f"{sw}_{key}"] = float(_mean_row(metrics, scenario, label)[column])
+        rows.append(row)
+    return pd.DataFrame(rows, columns=columns)
 
 
 # --------------------------------------------------------------------------------------------
@@ -311,9 +463,10 @@ ERRATA: tuple[tuple[str, str, dict[str, Any]], ...] = (
 
 def errata_table(scenario: Scenario, *, controller: str = "ftsmc") -> pd.DataFrame:
     """Run the :data:`ERRATA` variants of ``scenario``'s controller named ``controller`` and
-    tabulate ``variant, description, mse_mean, mse_joint1, steady_state_error, chattering``
-    (steady-state error: worst joint; chattering: mean over joints). A variant that diverges
-    has NaN numbers and says so in its description."""
+    tabulate ``variant, description, mse_mean, mse_joint1, steady_state_error, chattering,
+    scenario, controller`` (steady-state error: worst joint; chattering: mean over joints;
+    ``scenario`` and ``controller``: the scenario's key and the controller's name, the same in
+    every row). A variant that diverges has NaN numbers and says so in its description."""
     base = next((c for c in scenario.controllers if c.name == controller), None)
     if base is None:
         raise ValueError(f"scenario {scenario.key!r} has no {controller} controller")
@@ -356,7 +509,10 @@ def errata_table(scenario: Scenario, *, controller: str = "ftsmc") -> pd.DataFra
                 "chattering": _cell(table, "mean", "chattering"),
             }
         )
-    return pd.DataFrame(rows)
+    frame = pd.DataFrame(rows)
+    frame["scenario"] = scenario.key
+    frame["controller"] = controller
+    return frame
 
 
 def _cell(table: pd.DataFrame, row: str, column: str) -> float:
