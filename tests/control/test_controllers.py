@@ -614,6 +614,19 @@ def test_torque_is_always_finite(
         assert np.all(np.isfinite(s)), (c, s)
 
 
+def test_a_state_beyond_float64_is_an_error_not_nan() -> None:
+    """|qd| = 1e200 overflows the model's velocity-squared terms: a named error, not NaN."""
+    z = np.zeros(N)
+    qd = np.array([1e200, 0.0, 0.0])
+    for c in CONTROLLERS:
+        with pytest.raises(
+            ValueError,
+            match=r"^the torque of joint \d overflows float64 at this "
+            r"state \(\|qd\| up to 1e\+200 rad/s\): the state is out of range$",
+        ):
+            c.evaluate(z, qd, z, z, z, dt=5e-4)
+
+
 # ---------------------------------------------------------------------------- super-twisting
 def _sequence(rng: np.random.Generator, count: int) -> list[tuple[np.ndarray, ...]]:
     return _random_states(rng, count)

@@ -317,6 +317,16 @@ class SlidingModeController:
         """Validated evaluation: returns ``(tau, s)``, each shape (n,).
 
         ``dt`` (s) is required for a stateful law (it advances the super-twisting integral).
+        The singularity guard keeps the torque finite for every finite state whose dynamics
+        float64 can represent; a state so large that the model's own terms overflow (the
+        velocity-squared terms, around ``|q̇| > 1e150`` rad/s) raises ``ValueError`` rather
+        than returning inf or NaN. (The simulator reports the same as a divergence.)
+
+        Raises
+        ------
+        ValueError
+            On a wrong shape, a non-finite input, a missing ``dt`` for a stateful law, or a
+            state whose torque overflows float64.
         """
         n = self.n
         arrays = []
@@ -350,6 +360,12 @@ class SlidingModeController:
             s,
             self._scratch,
         )
+        bad = np.flatnonzero(~(np.isfinite(tau) & np.isfinite(s)))
+        if bad.size:
+            raise ValueError(
+                f"the torque of joint {bad[0] + 1} overflows float64 at this state "
+                f"(|qd| up to {np.max(np.abs(arrays[1])):.3g} rad/s): the state is out of range"
+            )
         return tau, s
 
     def sliding_variable(
