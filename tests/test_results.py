@@ -16,6 +16,7 @@ import pytest
 
 from slidingarm import (
     FTSMC,
+    NTSMC,
     PAPER_Q0,
     BatchResult,
     ConstantTorque,
@@ -275,3 +276,19 @@ def test_batch_result_validates_shapes() -> None:
         BatchResult(t=t, **dict(good, q=np.zeros((4, 3))))
     with pytest.raises(ValueError, match=r"^s has shape \(3, 4, 3\), other signals \(2, 4, 3\)$"):
         BatchResult(t=t, **dict(good, s=np.zeros((3, 4, 3))))
+
+
+def test_xarray_gives_the_sliding_variable_its_own_unit() -> None:
+    """s = ė + ... is in rad/s; NTSMC's s = e + sig(ė)^(p/q)/β is in rad."""
+    nt = NTSMC(ARM, beta=2.0, gamma=1.5, k=20.0, switching="tanh", width=0.05)
+    ft = FTSMC(ARM, alpha=2, beta=2, p=5, q=3, k=20, switching="tanh", width=0.05)
+    runs = {
+        name: simulate(ARM, c, REF, q0=PAPER_Q0, t_final=0.01, dt=DT)
+        for name, c in (("ntsmc", nt), ("ftsmc", ft))
+    }
+    assert runs["ntsmc"].to_xarray()["s"].attrs["units"] == "rad"
+    assert runs["ftsmc"].to_xarray()["s"].attrs["units"] == "rad/s"
+    assert runs["ntsmc"].to_xarray()["q"].attrs["units"] == "rad"
+    mixed = simulate_batch(ARM, [nt, ft], REF, q0=PAPER_Q0, t_final=0.01, dt=DT)
+    assert mixed.to_xarray()["s"].attrs["units"] == "rad or rad/s"
+    assert mixed.to_xarray()["qd"].attrs["units"] == "rad/s"

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import zipfile
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,6 +39,26 @@ SIGNALS: dict[str, tuple[str, str]] = {
     "tau": ("tau", "N m"),
     "s": ("s", "rad/s"),
 }
+
+
+def sliding_unit(params: Mapping[str, Any]) -> str:
+    """Unit of a run's sliding variable ``s`` from its params: rad for the nonsingular terminal
+    surface (NTSMC, :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`), rad/s for the
+    others (:math:`s = \\dot e + \\dots`) and for params that do not name the controller."""
+    ctrl = params.get("controller")
+    if isinstance(ctrl, Mapping) and (
+        ctrl.get("controller") == "ntsmc" or ctrl.get("surface") == "nonsingular_terminal"
+    ):
+        return "rad"
+    return "rad/s"
+
+
+def _units(name: str, default: str, params: Sequence[Mapping[str, Any]]) -> str:
+    """The unit of signal ``name`` over runs with ``params`` (a mix of s units is written so)."""
+    if name != "s" or not params:
+        return default
+    units = sorted({sliding_unit(p) for p in params})
+    return units[0] if len(units) == 1 else " or ".join(units)
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,7 +160,11 @@ class SimResult:
 
         joints = np.arange(1, self.n + 1)
         data_vars = {
-            name: (("time", "joint"), getattr(self, name), {"units": unit})
+            name: (
+                ("time", "joint"),
+                getattr(self, name),
+                {"units": _units(name, unit, [self.params])},
+            )
             for name, (_prefix, unit) in SIGNALS.items()
         }
         return xr.Dataset(
@@ -266,7 +291,11 @@ class BatchResult:
 
         joints = np.arange(1, self.q.shape[2] + 1)
         data_vars = {
-            name: (("run", "time", "joint"), getattr(self, name), {"units": unit})
+            name: (
+                ("run", "time", "joint"),
+                getattr(self, name),
+                {"units": _units(name, unit, self.params)},
+            )
             for name, (_prefix, unit) in SIGNALS.items()
         }
         return xr.Dataset(

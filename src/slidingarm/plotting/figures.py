@@ -37,7 +37,7 @@ from slidingarm.plotting._style import (
     smooth,
     subscript,
 )
-from slidingarm.results import SimResult
+from slidingarm.results import SimResult, sliding_unit
 
 __all__ = [
     "FIGURES",
@@ -121,15 +121,8 @@ def _symlog_threshold(series: list[FloatArray]) -> float:
 
 
 def _sliding_unit(res: SimResult) -> str:
-    """Unit of a run's sliding variable: rad for the nonsingular terminal surface (NTSMC,
-    :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`), rad/s for the others
-    (:math:`s = \\dot e + \\dots`) and for a run whose params do not name its controller."""
-    ctrl = res.params.get("controller")
-    if isinstance(ctrl, Mapping) and (
-        ctrl.get("controller") == "ntsmc" or ctrl.get("surface") == "nonsingular_terminal"
-    ):
-        return "rad"
-    return "rad/s"
+    """Unit of a run's sliding variable (see :func:`slidingarm.results.sliding_unit`)."""
+    return sliding_unit(res.params)
 
 
 def _draw(
