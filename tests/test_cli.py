@@ -234,3 +234,18 @@ def test_a_full_disk_is_one_line_and_writes_nothing(
     assert line.endswith(f"{os.strerror(errno.ENOSPC)}; nothing was written")
     assert "short/pdsmc.csv" in line
     assert list(tmp_path.iterdir()) == [short_config], "neither the output nor a staging folder"
+
+
+def test_a_results_folder_does_not_hide_a_shipped_scenario(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`run sign --out .` makes ./sign/; `validate sign` there still means the shipped one."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sign").mkdir()
+    code, out, err = invoke("validate", "sign")
+    assert code == 0, err
+    assert "scenario 'sign'" in out
+    (tmp_path / "mine").mkdir()
+    code, _, err = invoke("validate", "mine")
+    assert code == EXIT_USAGE
+    assert "mine" in one_line_error(err)

@@ -127,13 +127,19 @@ def test_save_load_round_trip_is_exact(result: SimResult, tmp_path: Path) -> Non
 
 
 def test_saved_file_has_the_ordinary_mode(result: SimResult, tmp_path: Path) -> None:
-    """The atomic write goes through mkstemp (0600); the file must end as 0666 & ~umask."""
-    old = os.umask(0o022)
-    try:
-        path = result.save(tmp_path / "run.npz")
-    finally:
-        os.umask(old)
-    assert stat.S_IMODE(path.stat().st_mode) == 0o644
+    """The atomic write goes through mkstemp (0600); the file must end as 0666 & ~umask, the
+    umask as the process had it (read once, at import), exactly as open() would make it."""
+    path = result.save(tmp_path / "run.npz")
+    plain = tmp_path / "plain"
+    plain.write_bytes(b"")
+    assert stat.S_IMODE(path.stat().st_mode) == stat.S_IMODE(plain.stat().st_mode)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~os_umask()
+
+
+def os_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def test_save_adds_the_suffix_and_keeps_a_null_seed(tmp_path: Path) -> None:

@@ -9,11 +9,20 @@ from pathlib import Path
 __all__ = ["atomic_write_bytes", "atomic_write_text", "umask"]
 
 
-def umask() -> int:
-    """The process's file-creation mask (read by setting it and restoring it at once)."""
+def _read_umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+#: The file-creation mask, read once at import. Reading it means setting it for an instant,
+#: which a thread creating a file at that instant would feel, so it is not read per write.
+_UMASK = _read_umask()
+
+
+def umask() -> int:
+    """The process's file-creation mask (as it was when slidingarm was imported)."""
+    return _UMASK
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

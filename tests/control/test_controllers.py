@@ -627,6 +627,18 @@ def test_a_state_beyond_float64_is_an_error_not_nan() -> None:
             c.evaluate(z, qd, z, z, z, dt=5e-4)
 
 
+def test_a_rejected_call_leaves_the_super_twisting_integral_alone() -> None:
+    z = np.zeros(N)
+    a, b = (make("ftsmc", "tanh", reaching="super-twisting", k=4.0, k2=30.0) for _ in range(2))
+    for c in (a, b):
+        c.evaluate(z + 0.1, z, z, z, z, dt=5e-4)
+    with pytest.raises(ValueError, match="overflows float64"):
+        a.evaluate(z, np.array([1e200, 0.0, 0.0]), z, z, z, dt=5e-4)
+    np.testing.assert_array_equal(
+        a.evaluate(z + 0.2, z, z, z, z, dt=5e-4)[0], b.evaluate(z + 0.2, z, z, z, z, dt=5e-4)[0]
+    )
+
+
 # ---------------------------------------------------------------------------- super-twisting
 def _sequence(rng: np.random.Generator, count: int) -> list[tuple[np.ndarray, ...]]:
     return _random_states(rng, count)

@@ -348,6 +348,7 @@ class SlidingModeController:
                 raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")
         step = 0.0 if dt is None else float(dt)
         tau, s = np.empty(n), np.empty(n)
+        state = self._state.copy()  # restored if the call is rejected below
         CK.control_once(
             self._ci,
             self._cf,
@@ -362,6 +363,7 @@ class SlidingModeController:
         )
         bad = np.flatnonzero(~(np.isfinite(tau) & np.isfinite(s)))
         if bad.size:
+            self._state[:] = state
             raise ValueError(
                 f"the torque of joint {bad[0] + 1} overflows float64 at this state "
                 f"(|qd| up to {np.max(np.abs(arrays[1])):.3g} rad/s): the state is out of range"

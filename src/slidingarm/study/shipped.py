@@ -51,16 +51,18 @@ def load_shipped(name: str) -> Scenario:
 def resolve_scenario(spec: str | Path) -> Scenario:
     """Load a scenario given as a file path or as the name of a shipped scenario.
 
-    An existing file wins; otherwise a name in :data:`SCENARIOS` loads the shipped file.
+    An existing file wins; otherwise a name in :data:`SCENARIOS` loads the shipped file (a
+    folder of that name, such as a results folder, does not hide it).
     """
     path = Path(spec)
     try:
-        exists = path.exists()
+        is_file, exists = path.is_file(), path.exists()
     except OSError as exc:  # e.g. a name longer than the file system allows
         raise ConfigError(f"cannot be read ({exc.strerror or exc})", file=path) from None
+    # only a file shadows a shipped name: `run sign --out .` makes a folder ./sign/
+    if not is_file and str(spec) in SCENARIOS:
+        return load_shipped(str(spec))
     if not exists:
-        if str(spec) in SCENARIOS:
-            return load_shipped(str(spec))
         raise ConfigError(
             f"no such file (nor the name of a shipped scenario: {', '.join(SCENARIOS)})", file=path
         )
