@@ -160,7 +160,8 @@ def test_report_chattering_after_the_transient(study: tuple[Path, StudyOutput]) 
     section = _md_section(study[0], "## Chattering")
     smooth = [c for c in table.index if table.loc[c, "tanh_alternation_late"] < A.ALTERNATING]
     flipping = [c for c in table.index if c not in smooth]
-    said = section.split("removes that for ")[1].split(" (")[0]
+    assert ("removes that for " in section) == bool(smooth), section
+    said = section.split("removes that for ")[1].split(" (")[0] if smooth else ""
     assert set(re.findall(r"[A-Z]+SMC", said)) == {c.upper() for c in smooth}
     for c in flipping:
         # alternating under tanh goes with a terminal gain per sample above 1, and back
@@ -169,6 +170,7 @@ def test_report_chattering_after_the_transient(study: tuple[Path, StudyOutput]) 
     for c in smooth:
         gain = table.loc[c, "tanh_gain_late"]
         assert math.isnan(gain) or gain <= 1
+    assert ("It does not for " in section) == bool(flipping), section
     if flipping:
         said = section.split("It does not for ")[1].split(":")[0]
         assert set(re.findall(r"[A-Z]+SMC", said)) == {c.upper() for c in flipping}
@@ -240,9 +242,9 @@ def test_ftsmc_steady_state(metrics: pd.DataFrame) -> None:
 
     assert worst("sign") <= 1e-4
     assert worst("tanh") <= 1e-5
-    # paper.toml's reasons: "from order 1e-5 rad under sign ... to order 1e-8 rad"
-    assert 3e-6 <= worst("sign") < 1e-4
-    assert 3e-9 <= worst("tanh") < 1e-7
+    # paper.toml's reasons: "from a few 1e-5 rad under sign ... to a few 1e-9 rad"
+    assert 1e-5 <= worst("sign") < 1e-4
+    assert 1e-9 <= worst("tanh") < 1e-8
     assert worst("sign") / worst("tanh") >= 100
 
 
@@ -321,8 +323,12 @@ def test_gain_grid(study: tuple[Path, StudyOutput]) -> None:
         assert not at.loc[(sw, 20.0, 2.0, 5.0), "ranking_holds"]  # beta large: TSMC < FTSMC
         assert not at.loc[(sw, 20.0, 5.0, 1.0), "ranking_holds"]  # lambda large: PDSMC < TSMC
         assert not at.loc[(sw, 5.0, 2.0, 2.0), "ranking_holds"]  # k small: FTSMC reaches late
+    # the grid's point at the study's gains is the study's own sign run
     ours = at.loc[("sign", 20.0, 2.0, 2.0)]
-    assert ours.mse_ftsmc == pytest.approx(0.0125, abs=5e-5)
+    metrics = pd.read_csv(study[0] / "metrics.csv", dtype={"joint": str})
+    mean = metrics[(metrics.scenario == "sign") & (metrics.joint == "mean")].set_index("controller")
+    for label in ("pdsmc", "tsmc", "ftsmc"):
+        assert ours[f"mse_{label}"] == pytest.approx(mean.loc[label, "mse"], rel=1e-12)
     # the structural claims of paper.toml's reasons about the grid
     assert not (grid.ranking_holds & (grid.lam_alpha > grid.beta)).any()  # never with alpha > beta
     assert not grid[grid.lam_alpha == 5.0].ranking_holds.any()  # never at alpha = 5
