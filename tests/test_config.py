@@ -410,3 +410,81 @@ def test_missing_table_file(tmp_path: Path) -> None:
 def test_fault_on_a_missing_joint(tmp_path: Path) -> None:
     msg = error_of(with_base(tmp_path, '[[sensor.faults]]\nkind = "stuck"\njoint = 4\n'))
     assert ": sensor.faults[0].joint: joint 4 does not exist on a 3-joint arm" in msg
+
+
+# ---------------------------------------------------------------------------- numbers are numbers
+
+
+@pytest.mark.parametrize(
+    ("extra", "path", "reason"),
+    [
+        # integers: neither booleans nor floats, however integral
+        ("[simulation]\nsubsteps = true\n", "simulation.substeps",
+         "must be an integer >= 1, not a boolean, got True"),
+        ("[simulation]\nsubsteps = 2.0\n", "simulation.substeps",
+         "must be an integer >= 1, got 2.0"),
+        ("[simulation]\nsubsteps = 1.5\n", "simulation.substeps",
+         "must be an integer >= 1, got 1.5"),
+        ('[simulation]\nsubsteps = "2"\n', "simulation.substeps",
+         "must be an integer >= 1, got '2'"),
+        ("[simulation]\nseed = true\n", "simulation.seed",
+         "must be an integer >= 0, not a boolean, got True"),
+        ("[simulation]\nseed = 1.0\n", "simulation.seed", "must be an integer >= 0, got 1.0"),
+        ('[[sensor.faults]]\nkind = "bias"\njoint = true\nvalue = 0.01\n',
+         "sensor.faults[0].joint", "must be an integer >= 1, not a boolean, got True"),
+        ('[[sensor.faults]]\nkind = "stuck"\njoint = 1.0\n', "sensor.faults[0].joint",
+         "must be an integer >= 1, got 1.0"),
+        ('[[sensor.faults]]\nkind = "dropout"\njoint = true\nprobability = 0.5\n',
+         "sensor.faults[0].joint", "must be an integer >= 1, not a boolean, got True"),
+        ("[gains]\np = true\n", "gains.p", "must be a positive odd integer, not a boolean, got True"),
+        ("[gains]\nq = true\n", "gains.q", "must be a positive odd integer, not a boolean, got True"),
+        ("[gains]\np = 5.0\n", "gains.p", "must be a positive odd integer, got 5.0"),
+        ("[gains]\nq = 3.0\n", "gains.q", "must be a positive odd integer, got 3.0"),
+        ('[[controllers]]\nname = "ntsmc"\nbeta = 2.0\np = 5\nq = true\n', "controllers[0].q",
+         "must be a positive odd integer, not a boolean, got True"),
+        # floats: booleans and strings are not numbers
+        ("[simulation]\nt_final = true\n", "simulation.t_final",
+         "must be a number > 0, not a boolean, got True"),
+        ('[simulation]\nt_final = "0.5"\n', "simulation.t_final", "must be a number > 0, got '0.5'"),
+        ("[gains]\neps_e = true\n", "gains.eps_e", "must be a number > 0, not a boolean, got True"),
+        ("[plant]\ngravity = true\n", "plant.gravity",
+         "must be a number >= 0, not a boolean, got True"),
+        ("[gains]\ngamma = true\np = 5\n", "gains.gamma",
+         "must be a number, not a boolean, got True"),
+        ("[mismatch]\npayload = false\n", "mismatch.payload",
+         "must be a number >= 0, not a boolean, got False"),
+        ('[sensor]\nvelocity = { kind = "levant", lipschitz = true }\n',
+         "sensor.velocity.lipschitz", "must be a number > 0, not a boolean, got True"),
+        ('[[sensor.faults]]\nkind = "dropout"\njoint = 1\nprobability = true\n',
+         "sensor.faults[0].probability", "must be a number in [0, 1], not a boolean, got True"),
+        ('[[disturbances]]\nkind = "sinusoidal"\namplitude = 1.0\nphase = true\n',
+         "disturbances[0].phase", "must be a finite number, not a boolean, got True"),
+        # booleans: not numbers either
+        ('[[controllers]]\nname = "tsmc"\nallow_nonterminal = 1\n',
+         "controllers[0].allow_nonterminal", "input should be a valid boolean, got 1"),
+    ],
+)  # fmt: skip
+def test_booleans_and_floats_are_not_integers(
+    tmp_path: Path, extra: str, path: str, reason: str
+) -> None:
+    msg = error_of(with_base(tmp_path, extra))
+    assert msg == f"{tmp_path / 's.toml'}: {path}: {reason}"
+
+
+def test_toml_integers_are_accepted_as_floats(tmp_path: Path) -> None:
+    path = with_base(tmp_path, "[simulation]\nt_final = 1\n\n[gains]\nk = 20\neps_e = 1\n")
+    setup = load_scenario(path).build()
+    assert setup.t_final == 1.0 and isinstance(setup.t_final, float)
+    assert all(c.to_dict()["k"] == 20.0 for c in setup.controllers.values())
+    assert isinstance(setup.substeps, int) and isinstance(setup.seed, int)
+
+
+def test_type_checks_keep_the_schema_bounds() -> None:
+    defs = Scenario.model_json_schema()["$defs"]
+    sim = defs["SimulationSpec"]["properties"]
+    assert sim["substeps"]["type"] == "integer" and sim["substeps"]["minimum"] == 1
+    assert sim["seed"]["type"] == "integer" and sim["seed"]["minimum"] == 0
+    assert sim["t_final"]["type"] == "number" and sim["t_final"]["exclusiveMinimum"] == 0
+    dropout = defs["DropoutFaultSpec"]["properties"]
+    assert dropout["joint"]["minimum"] == 1
+    assert (dropout["probability"]["minimum"], dropout["probability"]["maximum"]) == (0, 1)

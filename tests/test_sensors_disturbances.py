@@ -373,6 +373,38 @@ def test_levant_differentiator_converges_on_a_noise_free_run() -> None:
             lambda: LevantDifferentiator(lambda1=False),
             r"^lambda1 must be a number, not a boolean, got False$",
         ),
+        # numpy booleans and boolean arrays are booleans too; strings are not numbers
+        (
+            lambda: GaussianNoise(np.array([True, False, True])),
+            r"^noise sigma must be a number \(rad\) or one per joint, not a boolean, "
+            r"got array\(\[ True, False,  True\]\)$",
+        ),
+        (
+            lambda: GaussianNoise(np.True_),
+            r"^noise sigma must be a number \(rad\) or one per joint, not a boolean, got np\.True_$",
+        ),
+        (lambda: GaussianNoise(()), r"^noise sigma must be finite and >= 0 \(rad\), got \(\)$"),
+        (
+            lambda: DirtyDerivative(np.True_),
+            r"^time_constant must be a number, not a boolean, got np\.True_$",
+        ),
+        (lambda: DirtyDerivative("0.005"), r"^time_constant must be a number, got '0\.005'$"),
+        (
+            lambda: SensorFault("bias", joint=np.True_),
+            r"^fault joint must be a joint number >= 1, got np\.True_$",
+        ),
+        (
+            lambda: SensorFault("stuck", joint=1, t_start=np.True_),
+            r"^fault t_start must be a finite time >= 0 s, got np\.True_$",
+        ),
+        (
+            lambda: SensorFault("bias", joint=1, value=np.False_),
+            r"^fault value must be a number \(rad\), got np\.False_$",
+        ),
+        (
+            lambda: SensorFault("dropout", joint=1, probability=np.True_),
+            r"^fault probability must lie in \[0, 1\], got np\.True_$",
+        ),
     ],
 )  # fmt: skip
 def test_sensor_validation(build: Any, match: str) -> None:
@@ -557,6 +589,52 @@ def test_constant_torque_sets_the_boundary_layer_equilibrium(d: float) -> None:
         (
             lambda: ModelMismatch(length_error=[0.1, True, 0.0]),
             r"^length_error must be a finite number or one per joint, got \[0\.1, True, 0\.0\]$",
+        ),
+        # numpy booleans and boolean arrays are booleans too (they were read as 1.0 and 0.0)
+        (
+            lambda: ConstantTorque(np.array([True, False, True])),
+            r"^constant disturbance value must be a finite number or one per joint, "
+            r"got array\(\[ True, False,  True\]\)$",
+        ),
+        (
+            lambda: ConstantTorque(np.True_),
+            r"^constant disturbance value must be a finite number or one per joint, got np\.True_$",
+        ),
+        (
+            lambda: ConstantTorque(1.0, t_start=np.True_),
+            r"^constant disturbance t_start must be a finite time \(s\), got np\.True_$",
+        ),
+        (
+            lambda: SinusoidalTorque((1.0, np.True_, 0.0)),
+            r"^sinusoidal disturbance amplitude must be a finite number or one per joint, "
+            r"got \(1\.0, np\.True_, 0\.0\)$",
+        ),
+        (
+            lambda: SinusoidalTorque(1.0, frequency=np.True_),
+            r"^sinusoidal disturbance frequency must be finite and >= 0 Hz, got np\.True_$",
+        ),
+        (
+            lambda: RandomTorque(np.array([True])),
+            r"^random disturbance sigma must be a finite number or one per joint, "
+            r"got array\(\[ True\]\)$",
+        ),
+        (
+            lambda: ModelMismatch(mass_error=np.array([True, False, False])),
+            r"^mass_error must be a finite number or one per joint, "
+            r"got array\(\[ True, False, False\]\)$",
+        ),
+        (
+            lambda: ModelMismatch(payload=np.True_),
+            r"^payload must be a finite mass >= 0 kg, got np\.True_$",
+        ),
+        # strings are not numbers, even when they read as one; an empty vector has no joints
+        (
+            lambda: ConstantTorque("1.5"),
+            r"^constant disturbance value must be a finite number or one per joint, got '1\.5'$",
+        ),
+        (
+            lambda: RandomTorque(()),
+            r"^random disturbance sigma must be a finite number or one per joint, got \(\)$",
         ),
     ],
 )

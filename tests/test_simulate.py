@@ -332,6 +332,7 @@ def _sim(**kw: Any) -> Any:
         ({"dt": "fast"}, r"t_final and dt must be numbers"),
         ({"substeps": 0}, r"substeps must be an integer >= 1, got 0"),
         ({"substeps": 2.0}, r"substeps must be an integer >= 1, got 2\.0"),
+        ({"substeps": True}, r"substeps must be an integer >= 1, got True"),
         ({"q0": (0.1, 0.2)}, r"q0 must have shape \(3,\) or \(B, 3\), got \(2,\)"),
         ({"q0": np.zeros((2, N))}, r"q0 must have shape \(3,\) for one run; use simulate_batch"),
         ({"q0": (0.1, math.nan, 0.2)}, r"q0 must be finite"),

@@ -84,9 +84,11 @@ from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     PrivateAttr,
+    StrictBool,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -95,6 +97,7 @@ from pydantic import (
 from pydantic.functional_validators import PlainValidator
 from pydantic.json_schema import WithJsonSchema
 
+from slidingarm._validate import is_integer, is_real
 from slidingarm.control.controllers import (
     FTSMC,
     NTSMC,
@@ -189,10 +192,6 @@ class ConfigError(ValueError):
 # value types: one error per bad value, with the allowed range in words
 
 
-def _is_number(x: Any) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool)
-
-
 def _bound(low: float | None, inclusive: bool) -> str:
     return "" if low is None else (f" >= {low:g}" if inclusive else f" > {low:g}")
 
@@ -208,9 +207,9 @@ def _per_joint_check(
     bound = _bound(low, inclusive)
 
     def check(v: Any) -> float | list[float]:
-        if _is_number(v):
+        if is_real(v):
             values, scalar = [float(v)], True
-        elif isinstance(v, list | tuple) and v and all(_is_number(x) for x in v):
+        elif isinstance(v, list | tuple) and v and all(is_real(x) for x in v):
             values, scalar = [float(x) for x in v], False
         else:
             raise ValueError(
@@ -233,7 +232,7 @@ def _vector_check(
     bound = _bound(low, inclusive)
 
     def check(v: Any) -> list[float]:
-        if not (isinstance(v, list | tuple) and v and all(_is_number(x) for x in v)):
+        if not (isinstance(v, list | tuple) and v and all(is_real(x) for x in v)):
             raise ValueError(f"must be a list of numbers{bound} (one per joint), got {v!r}")
         values = [float(x) for x in v]
         if any(not math.isfinite(x) or _below(x, low, inclusive) for x in values):
@@ -241,6 +240,33 @@ def _vector_check(
         return values
 
     return check
+
+
+def _type_check(allowed: str, accept: Callable[[Any], bool]) -> Callable[[Any], Any]:
+    """Before-validator of a plain number: ``accept`` (:func:`is_real` or :func:`is_integer`)
+    lets a value through to pydantic, which converts and bounds it; ``allowed`` says what is
+    allowed (``"a number > 0"``, ``"an integer >= 1"``).
+
+    Without it, pydantic's lax mode would read ``true`` as 1, the float ``2.0`` as the integer
+    2 and the string ``"4.5"`` as 4.5.
+    """
+
+    def check(v: Any) -> Any:
+        if isinstance(v, bool):
+            raise ValueError(f"must be {allowed}, not a boolean, got {v!r}")
+        if not accept(v):
+            raise ValueError(f"must be {allowed}, got {v!r}")
+        return v
+
+    return check
+
+
+def _number(allowed: str) -> BeforeValidator:
+    return BeforeValidator(_type_check(allowed, is_real))
+
+
+def _integer(allowed: str) -> BeforeValidator:
+    return BeforeValidator(_type_check(allowed, is_integer))
 
 
 def _schema(low: float | None, *, inclusive: bool = False, scalar: bool = True) -> dict[str, Any]:
@@ -279,9 +305,16 @@ NonNegativeVector = Annotated[
     PlainValidator(_vector_check(0.0, inclusive=True)),
     WithJsonSchema(_schema(0.0, inclusive=True, scalar=False)),
 ]
-PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+# The type check comes last: it wraps the constraints, so it runs first, and the JSON schema
+# keeps them (``minimum``, ``exclusiveMinimum``).
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False), _number("a number > 0")]
+NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False), _number("a number >= 0")]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False), _number("a finite number")]
+Probability = Annotated[float, Field(ge=0, le=1), _number("a number in [0, 1]")]
+Real = Annotated[float, _number("a number")]
+PositiveInt = Annotated[int, Field(ge=1), _integer("an integer >= 1")]
+NonNegativeInt = Annotated[int, Field(ge=0), _integer("an integer >= 0")]
+OddInt = Annotated[int, _integer("a positive odd integer")]
 Switching = Literal["sign", "tanh", "sat"]
 
 
@@ -413,12 +446,12 @@ class SimulationSpec(_Strict):
 
     t_final: PositiveFloat = Field(description="Duration (s), a whole number of dt.")
     dt: PositiveFloat = Field(description="Sample time of the digital controller (s).")
-    substeps: int = Field(default=1, ge=1, description="RK4 steps per sample interval.")
+    substeps: PositiveInt = Field(default=1, description="RK4 steps per sample interval.")
     q0: Vector = Field(description="Initial joint angles (rad).")
     qd0: Vector | None = Field(
         default=None, description="Initial joint velocities (rad/s); default rest."
     )
-    seed: int = Field(default=0, ge=0, description="Seed of the run's random generator.")
+    seed: NonNegativeInt = Field(default=0, description="Seed of the run's random generator.")
     torque_limit: PositivePerJoint | None = Field(
         default=None, description="Actuator limit |tau_i| <= tau_max (N m), scalar or per joint."
     )
@@ -472,7 +505,7 @@ class BiasFaultSpec(_Strict):
     """The measurement of one joint is offset by value (rad) from t_start on."""
 
     kind: Literal["bias"]
-    joint: int = Field(ge=1, description="Joint number, from 1.")
+    joint: PositiveInt = Field(description="Joint number, from 1.")
     t_start: NonNegativeFloat = 0.0
     value: FiniteFloat
 
@@ -481,7 +514,7 @@ class StuckFaultSpec(_Strict):
     """The measurement of one joint freezes from t_start on."""
 
     kind: Literal["stuck"]
-    joint: int = Field(ge=1)
+    joint: PositiveInt
     t_start: NonNegativeFloat = 0.0
 
 
@@ -489,9 +522,9 @@ class DropoutFaultSpec(_Strict):
     """Each sample of one joint is lost with probability from t_start on."""
 
     kind: Literal["dropout"]
-    joint: int = Field(ge=1)
+    joint: PositiveInt
     t_start: NonNegativeFloat = 0.0
-    probability: float = Field(ge=0, le=1)
+    probability: Probability
 
 
 FaultSpec = Annotated[
@@ -591,12 +624,12 @@ class _GainFields(_Strict):
     beta: PositivePerJoint | None = Field(
         default=None, description="Terminal surface gain of TSMC and FTSMC (and NTSMC's beta)."
     )
-    gamma: float | None = Field(
+    gamma: Real | None = Field(
         default=None,
         description="Terminal exponent in (0, 1) (give gamma or p and q); for NTSMC p/q in (1, 2).",
     )
-    p: int | None = Field(default=None, description="Odd integer; gamma = q/p (NTSMC: p/q).")
-    q: int | None = Field(default=None, description="Odd integer q < p.")
+    p: OddInt | None = Field(default=None, description="Odd integer; gamma = q/p (NTSMC: p/q).")
+    q: OddInt | None = Field(default=None, description="Odd integer q < p.")
     k: PositivePerJoint | None = Field(
         default=None, description="Reaching gain K = diag(k) (rad/s²)."
     )
@@ -704,7 +737,7 @@ class _ControllerHead(_Strict):
     switching: Switching | None = Field(
         default=None, description="Overrides the scenario's switching."
     )
-    allow_nonterminal: bool = Field(
+    allow_nonterminal: StrictBool = Field(
         default=False,
         description="Admit gamma > 1 (the paper's p/q) to measure that erratum (tsmc, ftsmc).",
     )
@@ -1296,7 +1329,7 @@ def _from_pydantic(
             msg = msg[len("Assertion failed, ") :]
         else:
             msg = msg[0].lower() + msg[1:] if msg else msg
-        shown = _is_number(value) or isinstance(value, str | bool)
+        shown = is_real(value) or isinstance(value, str | bool)
         reason = msg if ("got" in msg or not shown) else f"{msg}, got {value!r}"
     more = len(errors) - 1
     if more:

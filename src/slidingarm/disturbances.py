@@ -9,13 +9,13 @@ Model mismatch makes the plant differ from the controller's nominal arm (:class:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from slidingarm._validate import is_real, per_joint, plain
 from slidingarm.models.planar import PlanarArm
 
 __all__ = [
@@ -31,35 +31,22 @@ FloatArray = NDArray[np.float64]
 
 
 def _per_joint(
-    name: str, value: float | tuple[float, ...], *, nonneg: bool = False
+    name: str,
+    value: float | tuple[float, ...],
+    *,
+    low: float | None = None,
+    inclusive: bool = False,
+    why: str = "",
 ) -> float | tuple[float, ...]:
-    message = f"{name} must be a finite number or one per joint, got {value!r}"
-    if isinstance(value, bool | str) or (
-        isinstance(value, list | tuple) and any(isinstance(v, bool | str) for v in value)
-    ):
-        raise ValueError(message)
-    try:
-        arr = np.atleast_1d(np.asarray(value, dtype=float))
-    except (TypeError, ValueError):
-        raise ValueError(message) from None
-    if arr.ndim != 1 or not np.all(np.isfinite(arr)):
-        raise ValueError(message)
-    if nonneg and np.any(arr < 0):
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return float(arr[0]) if np.ndim(value) == 0 else tuple(arr.tolist())
-
-
-def _plain(value: float | tuple[float, ...]) -> float | list[float]:
-    """A per-joint value as JSON has it (a list, not a tuple), so params survive a round trip."""
-    return list(value) if isinstance(value, tuple) else value
-
-
-def _finite_number(value: object) -> bool:
-    """Whether ``value`` is a real, finite number (not a bool, a string or an array)."""
-    return (
-        isinstance(value, int | float | np.integer | np.floating)
-        and not isinstance(value, bool)
-        and math.isfinite(value)
+    """A finite number or one per joint, bounded below by ``low`` if given
+    (:func:`slidingarm._validate.per_joint`, in this module's wording)."""
+    return per_joint(
+        name,
+        value,
+        low=low,
+        inclusive=inclusive,
+        why=why,
+        invalid=f"{name} must be a finite number or one per joint, got {value!r}",
     )
 
 
@@ -79,7 +66,7 @@ class ConstantTorque:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "value", _per_joint("constant disturbance value", self.value))
-        if not _finite_number(self.t_start):
+        if not is_real(self.t_start, finite=True):
             raise ValueError(
                 f"constant disturbance t_start must be a finite time (s), got {self.t_start!r}"
             )
@@ -90,7 +77,7 @@ class ConstantTorque:
         return np.where((t >= self.t_start)[:, None], v[None, :], 0.0)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "constant", "value": _plain(self.value), "t_start": self.t_start}
+        return {"kind": "constant", "value": plain(self.value), "t_start": self.t_start}
 
 
 @dataclass(frozen=True)
@@ -105,11 +92,11 @@ class SinusoidalTorque:
         object.__setattr__(
             self, "amplitude", _per_joint("sinusoidal disturbance amplitude", self.amplitude)
         )
-        if not (_finite_number(self.frequency) and self.frequency >= 0):
+        if not (is_real(self.frequency, finite=True) and self.frequency >= 0):
             raise ValueError(
                 f"sinusoidal disturbance frequency must be finite and >= 0 Hz, got {self.frequency!r}"
             )
-        if not _finite_number(self.phase):
+        if not is_real(self.phase, finite=True):
             raise ValueError(
                 f"sinusoidal disturbance phase must be finite (rad), got {self.phase!r}"
             )
@@ -122,7 +109,7 @@ class SinusoidalTorque:
     def to_dict(self) -> dict[str, Any]:
         return {
             "kind": "sinusoidal",
-            "amplitude": _plain(self.amplitude),
+            "amplitude": plain(self.amplitude),
             "frequency": self.frequency,
             "phase": self.phase,
         }
@@ -137,7 +124,9 @@ class RandomTorque:
 
     def __post_init__(self) -> None:
         object.__setattr__(
-            self, "sigma", _per_joint("random disturbance sigma", self.sigma, nonneg=True)
+            self,
+            "sigma",
+            _per_joint("random disturbance sigma", self.sigma, low=0.0, inclusive=True),
         )
 
     def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
@@ -146,7 +135,7 @@ class RandomTorque:
         return rng.standard_normal((t.shape[0], n)) * s[None, :]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "random", "sigma": _plain(self.sigma)}
+        return {"kind": "random", "sigma": plain(self.sigma)}
 
 
 Disturbance = ConstantTorque | SinusoidalTorque | RandomTorque
@@ -176,15 +165,11 @@ class ModelMismatch:
     length_error: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
-        if not (_finite_number(self.payload) and self.payload >= 0):
+        if not (is_real(self.payload, finite=True) and self.payload >= 0):
             raise ValueError(f"payload must be a finite mass >= 0 kg, got {self.payload!r}")
+        why = " (a relative error; -1 would remove the link)"
         for name in ("mass_error", "length_error"):
-            v = _per_joint(name, getattr(self, name))
-            if np.any(np.asarray(v) <= -1):
-                raise ValueError(
-                    f"{name} must be > -1 (a relative error; -1 would remove the link), got {v!r}"
-                )
-            object.__setattr__(self, name, v)
+            object.__setattr__(self, name, _per_joint(name, getattr(self, name), low=-1.0, why=why))
 
     def apply(self, nominal: PlanarArm) -> PlanarArm:
         """The plant: the nominal arm with this mismatch."""
@@ -196,6 +181,6 @@ class ModelMismatch:
     def to_dict(self) -> dict[str, Any]:
         return {
             "payload": self.payload,
-            "mass_error": _plain(self.mass_error),
-            "length_error": _plain(self.length_error),
+            "mass_error": plain(self.mass_error),
+            "length_error": plain(self.length_error),
         }

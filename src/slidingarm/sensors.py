@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from slidingarm import _engine as E
+from slidingarm._validate import is_integer, is_real, per_joint, plain, positive
 
 __all__ = [
     "VELOCITY_ESTIMATORS",
@@ -35,41 +36,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-
-
-def _real(value: object) -> float | None:
-    """``value`` as a float if it is a real number (not a bool, a string or an array), else
-    ``None``."""
-    if isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool | np.bool_
-    ):
-        return float(value)
-    return None
-
-
-def _has_bool(value: object) -> bool:
-    """Whether ``value`` is a boolean or a sequence or array holding one."""
-    if isinstance(value, bool | np.bool_):
-        return True
-    if isinstance(value, np.ndarray):
-        return value.dtype == np.bool_ or (
-            value.dtype == object and any(_has_bool(v) for v in value.flat)
-        )
-    if isinstance(value, list | tuple):
-        return any(_has_bool(v) for v in value)
-    return False
-
-
-def _positive(name: str, value: float) -> float:
-    if isinstance(value, bool | np.bool_):
-        raise ValueError(f"{name} must be a number, not a boolean, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be a finite value > 0, got {value!r}")
-    return v
 
 
 # ---------------------------------------------------------------------------- velocity
@@ -114,7 +80,7 @@ class DirtyDerivative:
     kind: Literal["filtered"] = field(default="filtered", init=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "time_constant", _positive("time_constant", self.time_constant))
+        object.__setattr__(self, "time_constant", positive("time_constant", self.time_constant))
 
     def params(self, n: int) -> tuple[int, FloatArray]:
         """Compiled code and ``(NVF, n)`` parameter table."""
@@ -146,7 +112,7 @@ class LevantDifferentiator:
 
     def __post_init__(self) -> None:
         for name in ("lipschitz", "lambda1", "lambda0"):
-            object.__setattr__(self, name, _positive(name, getattr(self, name)))
+            object.__setattr__(self, name, positive(name, getattr(self, name)))
 
     def params(self, n: int) -> tuple[int, FloatArray]:
         """Compiled code and ``(NVF, n)`` parameter table."""
@@ -187,20 +153,16 @@ class GaussianNoise:
     sigma: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
-        bad = ValueError(f"noise sigma must be finite and >= 0 (rad), got {self.sigma!r}")
-        if _has_bool(self.sigma):
-            raise ValueError(
-                f"noise sigma must be a number (rad) or one per joint, not a boolean, "
-                f"got {self.sigma!r}"
-            )
-        try:
-            arr = np.atleast_1d(np.asarray(self.sigma, dtype=float))
-        except (TypeError, ValueError) as exc:
-            raise bad from exc
-        if arr.ndim != 1 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
-            raise bad
-        value: float | tuple[float, ...] = (
-            float(arr[0]) if arr.size == 1 and np.ndim(self.sigma) == 0 else tuple(arr.tolist())
+        bad = f"noise sigma must be finite and >= 0 (rad), got {self.sigma!r}"
+        value = per_joint(
+            "noise sigma",
+            self.sigma,
+            low=0.0,
+            inclusive=True,
+            invalid=bad,
+            out_of_range=bad,
+            boolean=f"noise sigma must be a number (rad) or one per joint, not a boolean, "
+            f"got {self.sigma!r}",
         )
         object.__setattr__(self, "sigma", value)
 
@@ -214,10 +176,7 @@ class GaussianNoise:
         return rng.standard_normal(shape) * sig
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "kind": "gaussian",
-            "sigma": list(self.sigma) if isinstance(self.sigma, tuple) else self.sigma,
-        }
+        return {"kind": "gaussian", "sigma": plain(self.sigma)}
 
 
 FaultKind = Literal["bias", "stuck", "dropout"]
@@ -262,23 +221,19 @@ class SensorFault:
     def __post_init__(self) -> None:
         if self.kind not in ("bias", "stuck", "dropout"):
             raise ValueError(f"fault kind must be 'bias', 'stuck' or 'dropout', got {self.kind!r}")
-        if (
-            not isinstance(self.joint, int | np.integer)
-            or isinstance(self.joint, bool)
-            or self.joint < 1
-        ):
+        if not is_integer(self.joint) or self.joint < 1:
             raise ValueError(f"fault joint must be a joint number >= 1, got {self.joint!r}")
-        t_start = _real(self.t_start)
-        if t_start is None or not math.isfinite(t_start) or t_start < 0:
+        if not is_real(self.t_start, finite=True) or self.t_start < 0:
             raise ValueError(f"fault t_start must be a finite time >= 0 s, got {self.t_start!r}")
-        value = _real(self.value)
-        if value is None:
+        if not is_real(self.value):
             raise ValueError(f"fault value must be a number (rad), got {self.value!r}")
-        if not math.isfinite(value):
+        if not math.isfinite(self.value):
             raise ValueError(f"fault value must be finite, got {self.value!r}")
-        probability = _real(self.probability)
-        if probability is None or not 0.0 <= probability <= 1.0:
+        if not is_real(self.probability) or not 0.0 <= self.probability <= 1.0:
             raise ValueError(f"fault probability must lie in [0, 1], got {self.probability!r}")
+        t_start = float(self.t_start)
+        value = float(self.value)
+        probability = float(self.probability)
         if self.kind != "bias" and value != 0.0:
             why = (
                 "a stuck sensor freezes at its last reading before t_start"

@@ -143,7 +143,7 @@ def simulate_batch(
     ref_n = getattr(reference, "n", None)
     if ref_n != n or not hasattr(reference, "evaluate"):
         raise ValueError(f"reference must be a Reference with n = {n} joints, got {reference!r}")
-    if not isinstance(substeps, int | np.integer) or substeps < 1:
+    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer) or substeps < 1:
         raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
     if not (math.isfinite(qd_limit) and qd_limit > 0):
         raise ValueError(f"qd_limit must be a finite speed > 0 rad/s, got {qd_limit!r}")

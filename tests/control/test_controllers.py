@@ -182,6 +182,10 @@ def test_simulation_records_pdsmc_by_its_own_parameters() -> None:
         ("ftsmc", "k2", True, r"^k2 must be a number or one number per joint, not a boolean, "
          r"got True$"),
         ("tsmc", "eps_e", True, r"^eps_e must be a number, not a boolean, got True$"),
+        ("ftsmc", "eps_e", np.True_, r"^eps_e must be a number, not a boolean, "
+         rf"got {re.escape(repr(np.True_))}$"),
+        ("pdsmc", "k", [1.0, np.False_, 1.0], r"^k must be a number or one number per joint, "
+         rf"not a boolean, got \[1\.0, {re.escape(repr(np.False_))}, 1\.0\]$"),
     ],
 )  # fmt: skip
 def test_boolean_gains_are_rejected(name: str, param: str, value: Any, match: str) -> None:
@@ -204,6 +208,12 @@ def test_boolean_exponents_are_rejected(name: str) -> None:
         ValueError, match=r"^p and q must be positive odd integers, got p=True, q=1$"
     ):
         CLASSES[name](ARM, **gains, p=True, q=1)
+    with pytest.raises(ValueError, match=r"^gamma must be a number, not a boolean, got np\.True_$"):
+        CLASSES[name](ARM, **gains, gamma=np.True_)
+    with pytest.raises(
+        ValueError, match=r"^p and q must be positive odd integers, got p=5, q=np\.True_$"
+    ):
+        CLASSES[name](ARM, **gains, p=5, q=np.True_)
 
 
 @pytest.mark.parametrize("name", ["tsmc", "ftsmc"])
@@ -320,6 +330,11 @@ def test_gains_are_validated(name: str, param: str) -> None:
         build([])
     with pytest.raises(ValueError, match=rf"^{param} must be a number or one number per joint"):
         build("fast")
+    # a string is not a number, even one that reads as a number
+    with pytest.raises(
+        ValueError, match=rf"^{param} must be a number or one number per joint, got '20'$"
+    ):
+        build("20")
     # one value per joint is accepted and kept per joint
     c = build([1.0, 2.0, 3.0])
     if param == "k":

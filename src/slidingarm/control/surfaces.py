@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._validate import as_real, is_integer, per_joint, positive
 from slidingarm.control import _kernels as CK
 
 __all__ = [
@@ -46,45 +47,18 @@ FloatArray = NDArray[np.float64]
 DEFAULT_EPS_E = 1e-9
 
 
-def _has_bool(value: object) -> bool:
-    """Whether ``value`` is a boolean or a sequence or array holding one."""
-    if isinstance(value, bool | np.bool_):
-        return True
-    if isinstance(value, np.ndarray):
-        return value.dtype == np.bool_ or (
-            value.dtype == object and any(_has_bool(v) for v in value.flat)
-        )
-    if isinstance(value, list | tuple):
-        return any(_has_bool(v) for v in value)
-    return False
-
-
 def gain(name: str, value: ArrayLike, *, allow_zero: bool = False) -> FloatArray:
     """Validate a gain: a finite scalar or 1-D vector, > 0 (or >= 0 with ``allow_zero``).
 
-    Booleans are rejected (``k=True`` is a mistake, not a gain of 1), as the configuration
-    files do.
+    Booleans (``bool``, ``np.bool_``, boolean arrays) and strings are rejected (``k=True`` is a
+    mistake, not a gain of 1), as the configuration files do.
+
+    Returns
+    -------
+    ndarray
+        Read-only, shape ``()`` for a scalar or ``(n,)`` for one value per joint.
     """
-    if _has_bool(value):
-        raise ValueError(
-            f"{name} must be a number or one number per joint, not a boolean, got {value!r}"
-        )
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a number or one number per joint, got {value!r}") from exc
-    if arr.ndim > 1:
-        raise ValueError(
-            f"{name} must be a scalar or a 1-D vector (one per joint), got shape {arr.shape}"
-        )
-    if arr.size == 0:
-        raise ValueError(f"{name} must not be empty")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
-    if allow_zero and np.any(arr < 0):
-        raise ValueError(f"{name} must be >= 0, got {arr.tolist()}")
-    if not allow_zero and np.any(arr <= 0):
-        raise ValueError(f"{name} must be > 0, got {arr.tolist()}")
+    arr = np.array(per_joint(name, value, low=0.0, inclusive=allow_zero), dtype=np.float64)
     arr.setflags(write=False)
     return arr
 
@@ -112,26 +86,12 @@ def exponent(
     if gamma is None:
         if p is None or q is None:
             raise ValueError(f"{name} is required (or both p and q)")
-        if (
-            not isinstance(p, int | np.integer)
-            or not isinstance(q, int | np.integer)
-            or isinstance(p, bool)
-            or isinstance(q, bool)
-            or p <= 0
-            or q <= 0
-            or p % 2 == 0
-            or q % 2 == 0
-        ):
+        if not is_integer(p) or not is_integer(q) or p <= 0 or q <= 0 or p % 2 == 0 or q % 2 == 0:
             raise ValueError(f"p and q must be positive odd integers, got p={p!r}, q={q!r}")
         ratio = Fraction(int(q), int(p)) if high <= 1.0 else Fraction(int(p), int(q))
         value = float(ratio)
     else:
-        if isinstance(gamma, bool | np.bool_):
-            raise ValueError(f"{name} must be a number, not a boolean, got {gamma!r}")
-        try:
-            value = float(gamma)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name} must be a number, got {gamma!r}") from exc
+        value = as_real(name, gamma)
     if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value!r}")
     if allow_nonterminal:
@@ -254,15 +214,7 @@ def FastTerminal(
 
 
 def _eps(eps_e: float) -> float:
-    if isinstance(eps_e, bool | np.bool_):
-        raise ValueError(f"eps_e must be a number, not a boolean, got {eps_e!r}")
-    try:
-        v = float(eps_e)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"eps_e must be a number, got {eps_e!r}") from exc
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"eps_e must be a finite value > 0 (the singularity guard), got {eps_e!r}")
-    return v
+    return positive("eps_e", eps_e, why=" (the singularity guard)")
 
 
 @dataclass(frozen=True)
