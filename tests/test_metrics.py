@@ -371,6 +371,14 @@ X5 = np.zeros((5, 2))
             "delta_s must be positive and finite, got 0.0",
         ),
         (lambda: settling_time(T5, X5, delta_e=-1e-3), "delta_e must be positive and finite"),
+        (
+            lambda: settling_time(T5, X5, delta_e=True),
+            "delta_e must be positive and finite, got True",
+        ),
+        (
+            lambda: steady_state_error(T5, X5, window="0.5"),
+            "window must be positive and finite, got '0.5'",
+        ),
         (lambda: steady_state_error(T5, X5, window=math.inf), "window must be positive and finite"),
         (
             lambda: hf_power_share(T5, X5, cutoff_hz=0),

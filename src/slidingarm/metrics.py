@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._validate import is_real
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -141,7 +143,9 @@ def _signal(name: str, x: ArrayLike, t: FloatArray | None = None) -> FloatArray:
 
 
 def _positive(name: str, value: float) -> float:
-    """``value`` as a float, checked positive and finite."""
+    """``value`` as a float, checked to be a real number (not a bool), positive and finite."""
+    if not is_real(value):
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
     v = float(value)
     if not (math.isfinite(v) and v > 0.0):
         raise ValueError(f"{name} must be positive and finite, got {v!r}")
