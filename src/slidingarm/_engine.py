@@ -21,6 +21,7 @@ RK4 stage reuses them, the other stages rotate them by the stage's step
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import math
 from collections.abc import Callable
@@ -215,10 +216,11 @@ def _run_batch(
 run_batch: Callable[..., None] = _run_batch
 
 
-# positions of q_ref, qd_ref, qdd_ref among the arguments (their leading axis is time), and of
-# q_out
-_TIME_ARGS = (8, 9, 10)
-_Q_OUT_ARG = 20
+# positions among _run_batch's arguments of q_ref, qd_ref, qdd_ref (their leading axis is
+# time, not runs) and of q_out, read from its signature so that they follow any change to it
+_ARGS = list(inspect.signature(_run_batch).parameters)
+_TIME_ARGS = tuple(_ARGS.index(name) for name in ("q_ref", "qd_ref", "qdd_ref"))
+_Q_OUT_ARG = _ARGS.index("q_out")
 
 
 def _block(args: tuple[object, ...], nb: int, lo: int, hi: int) -> tuple[object, ...]:

@@ -363,9 +363,7 @@ class PlantSpec(_Strict):
     def build(self) -> PlanarArm:
         """The nominal arm."""
         if self.preset == "paper":
-            return PlanarArm(
-                (1.0, 1.0, 1.0), (0.5, 1.0, 1.0), mass_model=self.mass_model, gravity=self.gravity
-            )
+            return PlanarArm.paper(self.mass_model, gravity=self.gravity)
         return PlanarArm(
             self.masses if self.masses is not None else (),
             self.lengths if self.lengths is not None else (),

@@ -61,6 +61,29 @@ def _units(name: str, default: str, params: Sequence[Mapping[str, Any]]) -> str:
     return units[0] if len(units) == 1 else " or ".join(units)
 
 
+def _freeze_signals(obj: SimResult | BatchResult, *, batch: bool) -> None:
+    """Check and freeze the signals of a result: ``t`` (T,), every signal (T, n), or (B, T, n)
+    for a batch, all of one shape; each becomes a read-only float64 array."""
+    t = np.asarray(obj.t, dtype=np.float64)
+    if t.ndim != 1:
+        raise ValueError(f"t must have shape (T,), got {t.shape}")
+    ndim, layout = (3, "(B, T, n)") if batch else (2, "(T, n)")
+    shape = None
+    for name in SIGNALS:
+        arr = np.asarray(getattr(obj, name), dtype=np.float64)
+        if arr.ndim != ndim or arr.shape[ndim - 2] != t.shape[0]:
+            raise ValueError(
+                f"{name} must have shape {layout} with T={t.shape[0]}, got {arr.shape}"
+            )
+        if shape is not None and arr.shape != shape:
+            raise ValueError(f"{name} has shape {arr.shape}, other signals {shape}")
+        shape = arr.shape
+        arr.setflags(write=False)
+        object.__setattr__(obj, name, arr)
+    t.setflags(write=False)
+    object.__setattr__(obj, "t", t)
+
+
 @dataclass(frozen=True, eq=False)
 class SimResult:
     """One closed-loop run, every sample.
@@ -99,23 +122,7 @@ class SimResult:
     seed: int | None = None
 
     def __post_init__(self) -> None:
-        t = np.asarray(self.t, dtype=np.float64)
-        if t.ndim != 1:
-            raise ValueError(f"t must have shape (T,), got {t.shape}")
-        shape = None
-        for name in SIGNALS:
-            arr = np.asarray(getattr(self, name), dtype=np.float64)
-            if arr.ndim != 2 or arr.shape[0] != t.shape[0]:
-                raise ValueError(
-                    f"{name} must have shape (T, n) with T={t.shape[0]}, got {arr.shape}"
-                )
-            if shape is not None and arr.shape != shape:
-                raise ValueError(f"{name} has shape {arr.shape}, other signals {shape}")
-            shape = arr.shape
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-        t.setflags(write=False)
-        object.__setattr__(self, "t", t)
+        _freeze_signals(self, batch=False)
 
     # ------------------------------------------------------------------ derived signals
     @property
@@ -251,23 +258,7 @@ class BatchResult:
     seeds: list[int | None] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        t = np.asarray(self.t, dtype=np.float64)
-        if t.ndim != 1:
-            raise ValueError(f"t must have shape (T,), got {t.shape}")
-        shape = None
-        for name in SIGNALS:
-            arr = np.asarray(getattr(self, name), dtype=np.float64)
-            if arr.ndim != 3 or arr.shape[1] != t.shape[0]:
-                raise ValueError(
-                    f"{name} must have shape (B, T, n) with T={t.shape[0]}, got {arr.shape}"
-                )
-            if shape is not None and arr.shape != shape:
-                raise ValueError(f"{name} has shape {arr.shape}, other signals {shape}")
-            shape = arr.shape
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-        t.setflags(write=False)
-        object.__setattr__(self, "t", t)
+        _freeze_signals(self, batch=True)
 
     def __len__(self) -> int:
         return int(self.q.shape[0])

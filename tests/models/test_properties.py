@@ -205,8 +205,6 @@ def _rk4_free_motion(
     """Integrate :math:`M\\ddot q + h = 0` by classical RK4, recording every ``every`` steps."""
     n = q0.shape[0]
     work = np.empty((K.WORK_ROWS, n))
-    mmat = np.empty((n, n))
-    lw = np.empty((n, n))
     tau = np.zeros(n)
     q = q0.copy()
     v = qd0.copy()
@@ -234,7 +232,7 @@ def _rk4_free_motion(
                     vt[i] = v[i] + h * kv[k - 1, i]
                 kq[k, i] = vt[i]
             # one call site only: every call site of a kernel costs compile time
-            if not K.forward_dynamics_into(arm, g, qt, vt, tau, kv[k], mmat, lw, work):
+            if not K.forward_dynamics_into(arm, g, qt, vt, tau, kv[k], work):
                 return False
         for i in range(n):
             q[i] += dt / 6.0 * (kq[0, i] + 2.0 * kq[1, i] + 2.0 * kq[2, i] + kq[3, i])

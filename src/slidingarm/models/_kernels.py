@@ -303,17 +303,14 @@ def forward_dynamics_into(
     qd: np.ndarray,
     tau: np.ndarray,
     out: np.ndarray,
-    mmat: np.ndarray,
-    lw: np.ndarray,
     work: np.ndarray,
 ) -> bool:
     """Fill ``out`` (n,) with :math:`\\ddot q = M(q)^{-1}(\\tau - h(q, \\dot q))`.
 
     Computed by the articulated-body algorithm (:func:`aba_from_angles_into`), O(n), without
-    forming :math:`M`. ``work`` is ``(WORK_ROWS, n)``; ``mmat`` and ``lw`` are not used (they
-    were the scratch of an earlier :math:`M` + Cholesky version and are kept so that callers
-    need not change). Returns ``False`` if the mass matrix is not positive definite (cannot
-    happen for valid arms; a non-finite state also returns ``False``).
+    forming :math:`M`. ``work`` is ``(WORK_ROWS, n)``. Returns ``False`` if the mass matrix is
+    not positive definite (cannot happen for valid arms; a non-finite state also returns
+    ``False``).
     """
     angles_into(q, work)
     return aba_from_angles_into(arm, g, qd, tau, out, work)

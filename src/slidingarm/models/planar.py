@@ -103,10 +103,8 @@ def _batch_forward(
     """Fill ``out``; return the first state index whose M(q) is not positive definite, or -1."""
     n = q.shape[1]
     work = np.empty((K.WORK_ROWS, n))
-    mmat = np.empty((n, n))
-    lw = np.empty((n, n))
     for b in range(q.shape[0]):
-        if not K.forward_dynamics_into(arm, g, q[b], qd[b], tau[b], out[b], mmat, lw, work):
+        if not K.forward_dynamics_into(arm, g, q[b], qd[b], tau[b], out[b], work):
             return b
     return -1
 
@@ -210,9 +208,10 @@ class PlanarArm:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def paper(cls, mass_model: MassModel = "point") -> PlanarArm:
-        """The paper's arm (Table 1): ``m = (1, 1, 1) kg``, ``l = (0.5, 1, 1) m``, ``g = 9.81``."""
-        return cls((1.0, 1.0, 1.0), (0.5, 1.0, 1.0), mass_model=mass_model, gravity=9.81)
+    def paper(cls, mass_model: MassModel = "point", *, gravity: float = 9.81) -> PlanarArm:
+        """The paper's arm (Table 1): ``m = (1, 1, 1) kg``, ``l = (0.5, 1, 1) m``, ``g = 9.81``
+        m/s² unless ``gravity`` says otherwise."""
+        return cls((1.0, 1.0, 1.0), (0.5, 1.0, 1.0), mass_model=mass_model, gravity=gravity)
 
     def with_payload(self, mass: float) -> PlanarArm:
         """Return the arm with a point ``mass`` (kg) fixed at the tip of the last link.

@@ -11,12 +11,9 @@ import matplotlib
 from matplotlib.figure import Figure
 
 from slidingarm._io import atomic_write_bytes
-from slidingarm.plotting._style import RC
+from slidingarm.plotting._style import PNG_DPI, RC
 
 __all__ = ["PNG_DPI", "save_figure"]
-
-#: Resolution of the PNG files: sharp on screen and in the HTML report, quick to render.
-PNG_DPI = 150
 
 
 def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:

@@ -78,6 +78,9 @@ _EXTRA: tuple[tuple[str, Any], ...] = (
 #: The reference trajectory: dashed black, thin, drawn over the controllers.
 REFERENCE_STYLE = LineStyle("reference", "black", (0, (4.0, 2.5)), 1.0)
 
+#: Resolution of the PNG files: sharp on screen and in the HTML report, quick to render.
+PNG_DPI = 150
+
 #: rc settings of every figure (creation and saving). ``svg.hashsalt`` makes the SVG ids, and
 #: so the files, identical from one run to the next.
 RC: dict[RcKeyType, Any] = {
@@ -99,7 +102,7 @@ RC: dict[RcKeyType, Any] = {
     "agg.path.chunksize": 20000,
     "svg.hashsalt": "slidingarm",
     "svg.fonttype": "path",
-    "savefig.dpi": 150,
+    "savefig.dpi": PNG_DPI,
 }
 
 
