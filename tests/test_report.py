@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 import pandas as pd
@@ -14,18 +14,22 @@ import pytest
 from matplotlib.figure import Figure
 
 from slidingarm.metrics import DEFAULT_CUTOFF_HZ, DEFAULT_DELTA_E, DEFAULT_DELTA_S, DEFAULT_WINDOW
-from slidingarm.plotting import FIGURES, save_figure
+from slidingarm.plotting import FIGURES, controller_style, save_figure
+from slidingarm.plotting.figures import SMOOTH_SECONDS
 from slidingarm.report import (
     PAPER_FIGURES,
     ReportContext,
+    ScenarioKind,
     format_value,
-    scenario_kind,
     write_report,
 )
+from slidingarm.report._format import controller_label
 from slidingarm.study.analysis import ALTERNATING, PAPER_MSE_SWITCHING
 
 PAPER_MSE = {"ftsmc": 0.1331, "tsmc": 0.1976, "pdsmc": 0.4698}
 SCENARIOS = ("A_sign", "B_tanh", "C_noise")
+#: The kind of each scenario, given to the report (names are not read for it).
+KINDS: dict[str, ScenarioKind] = {"A_sign": "sign", "B_tanh": "tanh", "C_noise": "noise"}
 CONTROLLERS = ("pdsmc", "tsmc", "ftsmc")
 METRICS = (
     "mse", "rmse", "iae", "itae", "reaching_time", "settling_time", "steady_state_error",
@@ -153,6 +157,7 @@ def _context(out: Path, *, grid_points: int = 6, **changes: Any) -> ReportContex
                 "passed": [True, True, False],
             }
         ),
+        "kinds": KINDS,
         "meta": {"version": "0.1.0", "seeds": [1, 2], "runtime_s": 12.3456, "command": "slidingarm reproduce --out results", "date": "2026-01-01", "python": "3.11.7", "numpy": "2.4.6"},
     }  # fmt: skip
     fields.update(changes)
@@ -218,7 +223,7 @@ def test_paper_mse_stands_beside_its_own_case_only(written: tuple[Path, str, str
         assert len(rows) == len(CONTROLLERS)
         for row in rows:
             paper_cells = row[5:]
-            if scenario_kind(scen) == PAPER_MSE_SWITCHING:
+            if KINDS[scen] == PAPER_MSE_SWITCHING:
                 assert paper_cells[0] in paper_values
             else:
                 assert paper_cells == ["", ""], row
@@ -257,7 +262,7 @@ def test_reaching_time_not_applicable_under_noise(written: tuple[Path, str, str]
             if ln.startswith("| ") and not ln.startswith("| controller")
         ]
         assert len(cells) == len(CONTROLLERS) * 4
-        if scenario_kind(scen) == "noise":
+        if KINDS[scen] == "noise":
             assert set(cells) == {"n/a"}
             # the note gives the measured RMS of s beside delta_s
             assert "Reaching times are not applicable" in sub and "RMS is 0.03 rad/s" in sub
@@ -422,21 +427,43 @@ def test_format_value(value: Any, time: bool, text: str) -> None:
     assert format_value(value, time=time) == text
 
 
-@pytest.mark.parametrize(
-    ("name", "kind"),
-    [
-        ("A", "sign"),
-        ("a_sign", "sign"),
-        ("B. tanh", "tanh"),
-        ("C_noise", "noise"),
-        ("tanh_noise", "noise"),
-        ("other", None),
-    ],
-)
-def test_scenario_kind(name: str, kind: str | None) -> None:
-    assert scenario_kind(name) == kind
+def test_kinds_come_from_the_context_not_the_names(tmp_path: Path) -> None:
+    """A scenario's kind is what the context says, whatever its name: a "sign" scenario named
+    "smooth" gets the paper's MSE and sign figures, a scenario without a kind gets neither."""
+    metrics = _metrics().replace({"scenario": {"A_sign": "smooth", "C_noise": "plain"}})
+    kinds: dict[str, ScenarioKind] = {"smooth": "sign", "B_tanh": "tanh"}
+    md_path, _ = write_report(
+        tmp_path, _context(tmp_path, metrics=metrics, kinds=kinds, figures={})
+    )
+    md = md_path.read_text(encoding="utf-8")
+    section = _section(md, "## Mean-square error")
+    assert "the **smooth** rows only" in section
+    assert all(row[5] for row in _table_rows(section, "smooth"))
+    assert all(row[5:] == ["", ""] for row in _table_rows(section, "plain"))
+    assert "not applicable" not in _section(md, "## All metrics")  # no kind: no noise caveat
+    with pytest.raises(ValueError, match="kinds"):
+        _context(tmp_path, kinds={"A_sign": "sgn"}, figures={})
+
+
+def test_figure_captions_state_the_plotting_constants(tmp_path: Path) -> None:
+    figures = _figures(tmp_path)
+    fig = Figure(figsize=(1.0, 1.0))
+    fig.add_subplot().plot([0, 1], [0, 1])
+    save_figure(fig, tmp_path / "A_sign" / "torque")
+    figures["A_sign"]["torque"] = Path("A_sign") / "torque.png"
+    md_path, _ = write_report(tmp_path, _context(tmp_path, figures=figures))
+    md = md_path.read_text(encoding="utf-8")
+    assert f"its {format_value(SMOOTH_SECONDS * 1e3)} ms moving mean" in md
+    assert f"over the last {format_value(DEFAULT_WINDOW)} s, log axis" in md
+
+
+def test_controller_labels_are_the_figures_labels() -> None:
+    for name in ("pdsmc", "tsmc", "ftsmc", "ntsmc", "FTSMC", "mine"):
+        assert controller_label(name) == controller_style(name).label
+    assert controller_label("ftsmc") == "FTSMC" and controller_label("mine") == "MINE"
 
 
 def test_paper_figure_map_covers_every_figure() -> None:
+    assert set(PAPER_FIGURES) == set(get_args(ScenarioKind))
     for mapping in PAPER_FIGURES.values():
         assert tuple(mapping) == FIGURES

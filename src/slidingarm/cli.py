@@ -36,7 +36,8 @@ EXIT_USAGE = 2
 EXIT_FAILED = 1
 #: Exit status after Ctrl-C.
 EXIT_INTERRUPTED = 130
-#: Default results folder of ``reproduce``.
+#: Default results folder of ``reproduce`` (its one definition: the library's
+#: :func:`slidingarm.study.reproduce` takes the folder as an argument).
 DEFAULT_OUT = Path("slidingarm-results")
 
 

@@ -1,17 +1,23 @@
-"""Tests for slidingarm.study.analysis on synthetic runs: the post-transient metrics and the
-chattering table built from them."""
+"""Tests for slidingarm.study.analysis: the post-transient metrics and the chattering table on
+synthetic runs, the one way of running a setup's controllers, the scenario kinds and the
+paper's ranking."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from slidingarm.config import Setup, load_scenario
 from slidingarm.metrics import chattering
 from slidingarm.results import SimResult
+from slidingarm.simulate import SimulationError, simulate
+from slidingarm.study import SCENARIOS, load_shipped
 from slidingarm.study import analysis as A
+from slidingarm.study.reproduce import scenario_kind
 
 DT = 1e-3
 T = 1001  # 1 s
@@ -119,3 +125,118 @@ def test_chattering_table_without_late_columns_is_nan() -> None:
     table = A.chattering_table(pd.DataFrame(rows))
     assert table.loc[0, "ratio"] == pytest.approx(100.0)
     assert math.isnan(table.loc[0, "tanh_late"]) and math.isnan(table.loc[0, "sign_gain_late"])
+
+
+# ---------------------------------------------------------------------------- running
+
+WILD = """
+extends = "{base}"
+name = "short"
+
+[simulation]
+t_final = 0.25
+
+[[controllers]]
+name = "pdsmc"
+
+[[controllers]]
+name = "ftsmc"
+label = "wild"
+law = "paper"
+k = 1e6
+
+[[controllers]]
+name = "tsmc"
+
+[[controllers]]
+name = "ftsmc"
+label = "wilder"
+law = "paper"
+k = 2e6
+"""
+
+SIGNALS = ("q", "qd", "q_ref", "qd_ref", "q_meas", "qd_meas", "tau", "s")
+
+
+def _short(tmp_path: Path, shipped: str, text: str = "") -> Setup:
+    base = load_shipped(shipped).source
+    assert base is not None
+    path = tmp_path / f"{shipped}_short.toml"
+    head = f'extends = "{base.as_posix()}"\nname = "short"\n\n[simulation]\nt_final = 0.25\n'
+    path.write_text(text.format(base=base.as_posix()) if text else head, encoding="utf-8")
+    return load_scenario(path).build()
+
+
+def _same(a: SimResult, b: SimResult) -> bool:
+    return (
+        all(np.array_equal(getattr(a, name), getattr(b, name)) for name in SIGNALS)
+        and np.array_equal(a.t, b.t)
+        and a.params == b.params
+        and a.seed == b.seed
+    )
+
+
+@pytest.mark.parametrize("shipped", ["sign", "noise"])
+def test_simulate_setup_is_each_run_alone_bit_for_bit(tmp_path: Path, shipped: str) -> None:
+    """The batch of a setup's controllers gives, run by run, exactly what `simulate` gives for
+    that controller alone with the setup's seed (the noise scenario: the same noise too)."""
+    setup = _short(tmp_path, shipped)
+    results = A.simulate_setup(setup)
+    assert list(results) == list(setup.controllers)
+    opts = setup.options()
+    for label, controller in setup.controllers.items():
+        alone = simulate(setup.plant, controller, setup.reference, **opts)
+        assert _same(results[label], alone), label
+    # a subset, by label
+    some = A.simulate_setup(setup, {"x": setup.controllers["ftsmc"]})
+    assert list(some) == ["x"] and _same(some["x"], results["ftsmc"])
+
+
+def test_simulate_setup_diverging_runs(tmp_path: Path) -> None:
+    setup = _short(tmp_path, "sign", WILD)
+    recorded = A.simulate_setup(setup, on_diverge="record")
+    assert list(recorded) == ["pdsmc", "wild", "tsmc", "wilder"]
+    opts = setup.options()
+    for label in ("wild", "wilder"):
+        message = recorded[label]
+        assert isinstance(message, str)
+        with pytest.raises(SimulationError) as alone:
+            simulate(setup.plant, setup.controllers[label], setup.reference, **opts)
+        assert message == str(alone.value)  # the run's own words, not the batch's
+    for label in ("pdsmc", "tsmc"):
+        run = recorded[label]
+        assert isinstance(run, SimResult)
+        assert _same(run, simulate(setup.plant, setup.controllers[label], setup.reference, **opts))
+    with pytest.raises(SimulationError, match=r"scenario 'short', controller 'wild': .*diverged"):
+        A.simulate_setup(setup)
+    with pytest.raises(ValueError, match="on_diverge"):
+        A.simulate_setup(setup, on_diverge="ignore")  # type: ignore[call-overload]
+
+
+def test_scenario_kind_from_switching_and_sensor() -> None:
+    assert {name: scenario_kind(load_shipped(name)) for name in SCENARIOS} == {
+        "sign": "sign",
+        "tanh": "tanh",
+        "noise": "noise",
+    }
+    noise = load_shipped("noise")
+    assert scenario_kind(noise.model_copy(update={"switching": "sign"})) is None
+    assert scenario_kind(noise.model_copy(update={"switching": "sat"})) is None
+    quiet = noise.sensor.model_copy(update={"noise": None})
+    assert scenario_kind(noise.model_copy(update={"sensor": quiet})) == "tanh"
+
+
+def test_ranking_is_one_definition() -> None:
+    rows = [
+        {"scenario": "s", "controller": c, "joint": j, "mse": v}
+        for c, v in (("pdsmc", 3.0), ("ftsmc", 1.0), ("tsmc", 2.0), ("ntsmc", 0.5))
+        for j in ("1", "mean")
+    ]
+    metrics = pd.DataFrame(rows)
+    values = A.ranking_mse(metrics, "s", "mean")
+    assert list(values) == list(A.RANKING) and values["ftsmc"] == 1.0
+    assert A.follows_ranking(values)
+    assert not A.follows_ranking({**values, "tsmc": 0.9})
+    assert A.follows_ranking({"ftsmc": 1.0, "pdsmc": 3.0})  # only those given are compared
+    assert not A.follows_ranking({**values, "tsmc": math.nan})
+    assert A.ranking_mse(metrics, "other") == {}

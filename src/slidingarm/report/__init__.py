@@ -15,12 +15,12 @@ import os
 from pathlib import Path
 
 from slidingarm._io import atomic_write_text
-from slidingarm.report._build import PAPER_FIGURES, build_blocks, scenario_kind
-from slidingarm.report._context import ReportContext
+from slidingarm.report._build import PAPER_FIGURES, build_blocks
+from slidingarm.report._context import ReportContext, ScenarioKind
 from slidingarm.report._format import format_value
 from slidingarm.report._html import render_html, render_markdown
 
-__all__ = ["PAPER_FIGURES", "ReportContext", "format_value", "scenario_kind", "write_report"]
+__all__ = ["PAPER_FIGURES", "ReportContext", "ScenarioKind", "format_value", "write_report"]
 
 
 def write_report(out_dir: str | os.PathLike[str], ctx: ReportContext) -> tuple[Path, Path]:

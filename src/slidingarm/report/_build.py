@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +17,9 @@ from slidingarm.metrics import (
     DEFAULT_WINDOW,
     METRIC_COLUMNS,
 )
-from slidingarm.report._context import ReportContext
+from slidingarm.plotting import FIGURES
+from slidingarm.plotting.figures import SMOOTH_SECONDS
+from slidingarm.report._context import ReportContext, ScenarioKind
 from slidingarm.report._format import (
     COLUMN_LABELS,
     controller_label,
@@ -28,15 +28,23 @@ from slidingarm.report._format import (
     is_missing,
     markdown_table,
 )
-from slidingarm.study.analysis import ALTERNATING, LATE_FRACTION, PAPER_MSE_SWITCHING
+from slidingarm.study.analysis import (
+    ALTERNATING,
+    LATE_FRACTION,
+    PAPER_MSE_SWITCHING,
+    RANKING,
+    follows_ranking,
+    ranking_mse,
+)
 
-__all__ = ["PAPER_FIGURES", "FigureBlock", "build_blocks", "scenario_kind"]
+__all__ = ["PAPER_FIGURES", "FigureBlock", "build_blocks"]
 
-#: Scenario kind → figure name → the paper's figure number(s) showing the same thing (None:
-#: the paper has no such figure). From the paper's captions: Figs. 3–9 sign switching,
-#: 10–15 tanh, 16–22 tanh with noise; the paper shows joint 1 only for torque, sliding
-#: variable, velocity and error.
-PAPER_FIGURES: dict[str, dict[str, str | None]] = {
+#: Scenario kind (:data:`~slidingarm.report.ScenarioKind`) → figure name (those of
+#: :data:`slidingarm.plotting.FIGURES`, in their order) → the paper's figure number(s) showing
+#: the same thing (None: the paper has no such figure). From the paper's captions: Figs. 3–9
+#: sign switching, 10–15 tanh, 16–22 tanh with noise; the paper shows joint 1 only for torque,
+#: sliding variable, velocity and error.
+PAPER_FIGURES: dict[ScenarioKind, dict[str, str | None]] = {
     "sign": {
         "tracking_all": "3 and 9",
         "tracking_joint1": "4",
@@ -66,10 +74,7 @@ PAPER_FIGURES: dict[str, dict[str, str | None]] = {
     },
 }
 
-#: The figures of a scenario in report order (that of ``slidingarm.plotting.FIGURES``).
-_FIGURE_ORDER: tuple[str, ...] = tuple(PAPER_FIGURES["noise"])
-
-_KIND_TEXT = {
+_KIND_TEXT: dict[ScenarioKind, str] = {
     "sign": "sign switching (paper Figs. 3–9 and the MSE table)",
     "tanh": "tanh switching (paper Figs. 10–15)",
     "noise": "tanh switching with Gaussian noise on the measured angles (paper Figs. 16–22)",
@@ -80,7 +85,8 @@ _FIGURE_TEXT = {
     "tracking_joint1": "Joint 1 angle against the reference (dashed black).",
     "torque": (
         "Control torque of every joint. Where a torque chatters, the translucent band is the "
-        "range its samples fill and the line its 5 ms moving mean."
+        f"range its samples fill and the line its {format_value(SMOOTH_SECONDS * 1e3)} ms "
+        "moving mean."
     ),
     "sliding": (
         "Sliding variable s of every joint on a symmetric log axis (linear in a narrow band "
@@ -90,8 +96,8 @@ _FIGURE_TEXT = {
     "velocity": "Joint velocities against the reference velocity (dashed black).",
     "error": "Tracking error e = q − q_d of every joint.",
     "steady_state": (
-        "Magnitude of the tracking error over the last 0.5 s, log axis (the paper reports "
-        "final errors of 1e-7 to 1e-6 rad)."
+        f"Magnitude of the tracking error over the last {format_value(DEFAULT_WINDOW)} s, log "
+        "axis (the paper reports final errors of 1e-7 to 1e-6 rad)."
     ),
 }
 
@@ -131,25 +137,6 @@ Block = str | FigureBlock
 
 
 # ---------------------------------------------------------------------------- helpers
-def scenario_kind(name: str) -> str | None:
-    """``"sign"``, ``"tanh"`` or ``"noise"`` for a scenario name of the study, else None.
-
-    Recognises names containing ``noise``/``disturb``, ``tanh``, ``sign``/``sgn``, or starting
-    with the paper's scenario letters A, B, C (``"A"``, ``"a_sign"``, ``"B. tanh"``).
-    """
-    key = str(name).lower()
-    if "noise" in key or "noisy" in key or "disturb" in key:
-        return "noise"
-    if "tanh" in key or "smooth" in key:
-        return "tanh"
-    if "sign" in key or "sgn" in key:
-        return "sign"
-    m = re.match(r"^([abc])(?![a-z0-9])", key)
-    if m:
-        return {"a": "sign", "b": "tanh", "c": "noise"}[m.group(1)]
-    return None
-
-
 def _unique(values: Iterable[Any]) -> list[Any]:
     seen: list[Any] = []
     for v in values:
@@ -166,8 +153,8 @@ def _scenarios(ctx: ReportContext) -> list[str]:
     return names
 
 
-def _scenario_title(name: str) -> str:
-    kind = scenario_kind(name)
+def _scenario_title(ctx: ReportContext, name: str) -> str:
+    kind = ctx.kinds.get(name)
     return f"{name}: {_KIND_TEXT[kind]}" if kind else name
 
 
@@ -176,34 +163,26 @@ def _order_text(order: Sequence[str]) -> str:
 
 
 def _mse(metrics: pd.DataFrame, scenario: str, controller: str, joint: str) -> float | None:
+    """The ``mse`` of one row of the metrics table, None when it has no such row or value."""
     rows = metrics[
         (metrics["scenario"].astype(str) == scenario)
         & (metrics["controller"].astype(str) == controller)
+        & (metrics["joint"].astype(str) == joint)
     ]
     if rows.empty:
         return None
-    joints = rows["joint"].astype(str)
-    hit = rows[joints == joint]
-    if not hit.empty:
-        value = hit["mse"].iloc[0]
-        return None if is_missing(value) else float(value)
-    if joint == "mean":
-        per_joint = pd.to_numeric(rows.loc[joints.str.fullmatch(r"\d+"), "mse"], errors="coerce")
-        if per_joint.notna().any():
-            return float(per_joint.mean())
-    return None
+    value = rows["mse"].iloc[0]
+    return None if is_missing(value) else float(value)
 
 
 def _ranking(ctx: ReportContext, scenario: str, joint: str) -> tuple[list[str], bool | None]:
-    """The paper's order (best first) of the controllers this scenario ran, and whether our MSE
-    follows it strictly (None when fewer than two controllers can be compared)."""
-    present = {str(c) for c in ctx.metrics["controller"]}
-    order = [c for c in sorted(ctx.paper_mse, key=lambda c: ctx.paper_mse[c]) if c in present]
-    values = [_mse(ctx.metrics, scenario, c, joint) for c in order]
-    pairs = [(c, v) for c, v in zip(order, values, strict=True) if v is not None]
-    if len(pairs) < 2:
-        return order, None
-    return [c for c, _ in pairs], all(a[1] < b[1] for a, b in pairwise(pairs))
+    """The controllers of :data:`~slidingarm.study.analysis.RANKING` this scenario ran (best
+    first) and whether their MSE follows that order (None when fewer than two ran), as the
+    study's checks judge it."""
+    values = ranking_mse(ctx.metrics, scenario, joint)
+    if len(values) < 2:
+        return list(values), None
+    return list(values), follows_ranking(values)
 
 
 def _bool_count(df: pd.DataFrame, column: str) -> tuple[int, int] | None:
@@ -241,7 +220,6 @@ def _fmt_runtime(value: Any) -> str:
 # ---------------------------------------------------------------------------- sections
 def _summary(ctx: ReportContext, scenarios: list[str]) -> str:
     version = ctx.meta.get("version")
-    order = [c for c in sorted(ctx.paper_mse, key=lambda c: ctx.paper_mse[c])]
     mean_hold = [_ranking(ctx, s, "mean")[1] for s in scenarios]
     j1_hold = [_ranking(ctx, s, "1")[1] for s in scenarios]
     judged = [h for h in mean_hold if h is not None]
@@ -254,7 +232,7 @@ def _summary(ctx: ReportContext, scenarios: list[str]) -> str:
         f"{len(scenarios)} scenario{'s' if len(scenarios) != 1 else ''} "
         f"({', '.join(scenarios)}), with the corrected control law (see the errata below).",
         "The paper publishes no controller gains, so its absolute MSE cannot be matched; what "
-        f"must hold is its ranking {_order_text(order)}.",
+        f"must hold is its ranking {_order_text(RANKING)}.",
     ]
     if judged:
         j1 = [h for h in j1_hold if h is not None]
@@ -306,16 +284,15 @@ def _reproduce(ctx: ReportContext) -> str:
     return "\n".join(lines)
 
 
-def _paper_scenarios(scenarios: Sequence[str]) -> list[str]:
+def _paper_scenarios(ctx: ReportContext, scenarios: Sequence[str]) -> list[str]:
     """The scenarios of the paper's MSE table's case (:data:`PAPER_MSE_SWITCHING`)."""
-    return [s for s in scenarios if scenario_kind(s) == PAPER_MSE_SWITCHING]
+    return [s for s in scenarios if ctx.kinds.get(s) == PAPER_MSE_SWITCHING]
 
 
 def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
-    order_all = [c for c in sorted(ctx.paper_mse, key=lambda c: ctx.paper_mse[c])]
-    ref = order_all[0] if order_all else None
-    ref_label = controller_label(ref) if ref else "best"
-    beside = _paper_scenarios(scenarios) if ctx.paper_mse else []
+    ref = RANKING[0]
+    ref_label = controller_label(ref)
+    beside = _paper_scenarios(ctx, scenarios) if ctx.paper_mse else []
     lines = [
         "## Mean-square error beside the paper's",
         "",
@@ -323,7 +300,7 @@ def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
         "over the joints; the paper does not say which joints or window its table uses. The "
         "paper gives no gains, so absolute values cannot match; the ratios to "
         f"{ref_label} compare the shape of the ranking, and what must hold is the order "
-        f"{_order_text(order_all)}.",
+        f"{_order_text(RANKING)}.",
         "",
     ]
     if ctx.paper_mse:
@@ -357,7 +334,7 @@ def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
                 ctx.metrics.loc[ctx.metrics["scenario"].astype(str) == scen, "controller"]
             )
         ]
-        ref_mean = _mse(ctx.metrics, scen, ref, "mean") if ref else None
+        ref_mean = _mse(ctx.metrics, scen, ref, "mean")
         for ctrl in controllers:
             j1 = _mse(ctx.metrics, scen, ctrl, "1")
             mean = _mse(ctx.metrics, scen, ctrl, "mean")
@@ -372,11 +349,8 @@ def _mse_section(ctx: ReportContext, scenarios: list[str]) -> str:
             if beside:
                 if scen in beside:
                     paper = ctx.paper_mse.get(ctrl)
-                    paper_ratio = (
-                        paper / ctx.paper_mse[ref]
-                        if (paper is not None and ref and ctx.paper_mse[ref])
-                        else None
-                    )
+                    paper_ref = ctx.paper_mse.get(ref)
+                    paper_ratio = paper / paper_ref if (paper is not None and paper_ref) else None
                     row += [format_value(paper), format_value(paper_ratio)]
                 else:
                     row += ["", ""]
@@ -608,9 +582,10 @@ def _chattering_text(ch: pd.DataFrame) -> str:
     return " ".join(parts)
 
 
-def _errata_runs(errata: pd.DataFrame) -> tuple[str, list[str]]:
+def _errata_runs(ctx: ReportContext) -> tuple[str, list[str]]:
     """A sentence naming the scenario (and controller) the errata runs use, and the columns
     it makes redundant in the table."""
+    errata = ctx.errata
     said: dict[str, str] = {}
     for column in ("controller", "scenario"):
         if column in errata.columns and not errata.empty:
@@ -620,7 +595,7 @@ def _errata_runs(errata: pd.DataFrame) -> tuple[str, list[str]]:
     if "scenario" not in said:
         return "", list(said)
     scen = said["scenario"]
-    kind = scenario_kind(scen)
+    kind = ctx.kinds.get(scen)
     who = controller_label(said["controller"]) if "controller" in said else "the controller"
     what = f": {_KIND_TEXT[kind]}" if kind else ""
     return (
@@ -631,7 +606,7 @@ def _errata_runs(errata: pd.DataFrame) -> tuple[str, list[str]]:
 
 
 def _errata_section(ctx: ReportContext) -> str:
-    runs, drop = _errata_runs(ctx.errata)
+    runs, drop = _errata_runs(ctx)
     return "\n".join(
         [
             "## The paper's errata, measured",
@@ -744,7 +719,7 @@ def _metrics_section(ctx: ReportContext, scenarios: list[str]) -> str:
             continue
         sub = sub[[c for c in keep if c in sub.columns]]
         lines += ["", f"### {scen}", ""]
-        if scenario_kind(scen) == "noise" and "reaching_time" in sub.columns:
+        if ctx.kinds.get(scen) == "noise" and "reaching_time" in sub.columns:
             sub = sub.assign(reaching_time=NOT_APPLICABLE)
             lines += [_noise_reaching_note(ctx, scen), ""]
         lines.append(frame_table(sub, ["controller", "joint"]))
@@ -783,11 +758,9 @@ def _figure_blocks(ctx: ReportContext, scenarios: list[str], out_dir: Path) -> l
         figs = ctx.figures.get(scen)
         if not figs:
             continue
-        blocks.append(f"### {_scenario_title(scen)}")
-        kind = scenario_kind(scen)
-        names = [f for f in _FIGURE_ORDER if f in figs] + [
-            f for f in figs if f not in _FIGURE_ORDER
-        ]
+        blocks.append(f"### {_scenario_title(ctx, scen)}")
+        kind = ctx.kinds.get(scen)
+        names = [f for f in FIGURES if f in figs] + [f for f in figs if f not in FIGURES]
         for number, name in enumerate(names, start=1):
             rel_path = Path(figs[name])
             disk = rel_path if rel_path.is_absolute() else out_dir / rel_path

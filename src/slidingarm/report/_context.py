@@ -5,11 +5,16 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 import pandas as pd
 
-__all__ = ["ReportContext"]
+__all__ = ["ReportContext", "ScenarioKind"]
+
+#: The paper's cases (SPEC §7) a scenario of the study can be: sign switching (paper Figs. 3–9
+#: and its MSE table), tanh switching (Figs. 10–15), tanh switching with Gaussian noise on the
+#: measured positions (Figs. 16–22).
+ScenarioKind = Literal["sign", "tanh", "noise"]
 
 #: Columns the report cannot do without, per table (the others are shown when present).
 _REQUIRED: dict[str, tuple[str, ...]] = {
@@ -60,6 +65,12 @@ class ReportContext:
         ``name, value, threshold, passed``.
     figures : Mapping[str, Mapping[str, Path]]
         Scenario → figure name → PNG path relative to the report's folder.
+    kinds : Mapping[str, ScenarioKind]
+        Scenario → the paper's case it runs (:data:`ScenarioKind`), as the study defines it
+        (:func:`slidingarm.study.reproduce.scenario_kind`); a scenario not listed is none of
+        them. The report sets the paper's MSE beside the ``"sign"`` scenarios (the case of
+        :data:`slidingarm.study.analysis.PAPER_MSE_SWITCHING`), names the paper's figures
+        beside each scenario's, and does not apply the reaching time under ``"noise"``.
     meta : Mapping[str, Any]
         ``version``, ``seeds``, ``runtime_s``, ``command``, ``date``, Python and NumPy
         versions, ….
@@ -76,6 +87,7 @@ class ReportContext:
     grid: pd.DataFrame
     checks: pd.DataFrame
     figures: Mapping[str, Mapping[str, Path]]
+    kinds: Mapping[str, ScenarioKind]
     meta: Mapping[str, Any]
 
     def __post_init__(self) -> None:
@@ -90,10 +102,16 @@ class ReportContext:
                 raise ValueError(
                     f"ReportContext.{name} lacks column(s) {missing}; it has {list(value.columns)}"
                 )
-        for name in ("paper_mse", "gains", "noise", "figures", "meta"):
+        for name in ("paper_mse", "gains", "noise", "figures", "kinds", "meta"):
             if not isinstance(getattr(self, name), Mapping):
                 raise TypeError(
                     f"ReportContext.{name} must be a mapping, got {type(getattr(self, name)).__name__}"
                 )
+        allowed = get_args(ScenarioKind)
+        bad = {str(k): v for k, v in self.kinds.items() if v not in allowed}
+        if bad:
+            raise ValueError(
+                f"ReportContext.kinds: a scenario's kind is one of {list(allowed)}, got {bad}"
+            )
         if not isinstance(self.gain_reasons, str):
             raise TypeError("ReportContext.gain_reasons must be a markdown string")

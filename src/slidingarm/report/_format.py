@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slidingarm.plotting import controller_style
+
 __all__ = [
     "COLUMN_LABELS",
     "MISSING",
@@ -85,13 +87,11 @@ COLUMN_LABELS: dict[str, str] = {
     "ratio": "ratio",
 }
 
-_CONTROLLER_LABELS = {"pdsmc": "PDSMC", "tsmc": "TSMC", "ftsmc": "FTSMC", "ntsmc": "NTSMC"}
-
 
 def controller_label(name: Any) -> str:
-    """``"ftsmc"`` → ``"FTSMC"``; other names upper-cased."""
-    text = str(name)
-    return _CONTROLLER_LABELS.get(text.lower(), text.upper())
+    """A controller's name as the figures label it (:func:`slidingarm.plotting.controller_style`):
+    ``"ftsmc"`` → ``"FTSMC"``; other names upper-cased."""
+    return controller_style(str(name)).label
 
 
 def is_missing(value: Any) -> bool:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 import pandas as pd
@@ -23,6 +23,7 @@ from slidingarm.control.surfaces import (
     tsm_convergence_time,
 )
 from slidingarm.metrics import chattering as metric_chattering
+from slidingarm.metrics import mse as metric_mse
 from slidingarm.metrics import summary
 from slidingarm.results import SimResult
 from slidingarm.simulate import SimulationError, simulate, simulate_batch
@@ -40,13 +41,16 @@ __all__ = [
     "PAPER_MSE_SWITCHING",
     "RANKING",
     "SS_BOUND",
+    "OnDiverge",
     "chattering_table",
     "checks_table",
     "convergence_table",
     "errata_table",
+    "follows_ranking",
     "gain_grid",
     "late_metrics",
     "metrics_table",
+    "ranking_mse",
     "simulate_setup",
 ]
 
@@ -110,46 +114,96 @@ GRID_BETA: tuple[float, ...] = (1.0, 2.0, 5.0)
 # running
 
 
-def simulate_setup(setup: Setup) -> dict[str, SimResult]:
-    """Run every controller of a built scenario; results keyed by controller label, in order.
+#: What :func:`simulate_setup` does when a run diverges: ``"raise"`` a
+#: :class:`~slidingarm.simulate.SimulationError`, or ``"record"`` its message in place of the
+#: result and go on with the others.
+OnDiverge = Literal["raise", "record"]
+
+
+@overload
+def simulate_setup(
+    setup: Setup,
+    controllers: Mapping[str, SlidingModeController] | None = None,
+    *,
+    on_diverge: Literal["raise"] = "raise",
+) -> dict[str, SimResult]: ...
+
+
+@overload
+def simulate_setup(
+    setup: Setup,
+    controllers: Mapping[str, SlidingModeController] | None = None,
+    *,
+    on_diverge: Literal["record"],
+) -> dict[str, SimResult | str]: ...
+
+
+def simulate_setup(
+    setup: Setup,
+    controllers: Mapping[str, SlidingModeController] | None = None,
+    *,
+    on_diverge: OnDiverge = "raise",
+) -> dict[str, SimResult] | dict[str, SimResult | str]:
+    """Run controllers on a built scenario's plant, reference, sensor and disturbances.
+
+    The runs go through :func:`slidingarm.simulate.simulate_batch` together, all with the
+    setup's seed, so each draws the same noise as it would alone; the batch computes every run
+    on its own, so each result is the one :func:`slidingarm.simulate.simulate` gives, bit for
+    bit.
+
+    Parameters
+    ----------
+    setup : Setup
+        The built scenario.
+    controllers : mapping of str to SlidingModeController, optional
+        The controllers to run, by label (default: the setup's own, ``setup.controllers``).
+    on_diverge : {"raise", "record"}
+        What a diverging run does: ``"raise"`` stops with a
+        :class:`~slidingarm.simulate.SimulationError` naming the scenario and the controller;
+        ``"record"`` puts the run's error message (as :func:`~slidingarm.simulate.simulate`
+        words it for that run alone) in place of its result and keeps the others.
+
+    Returns
+    -------
+    dict of str to SimResult (or str with ``on_diverge="record"``)
+        Keyed by label, in the order of ``controllers``.
 
     Raises
     ------
     SimulationError
-        If a run diverges; the message names the controller.
+        With ``on_diverge="raise"``, if a run diverges.
     """
-    results: dict[str, SimResult] = {}
-    for label, controller in setup.controllers.items():
-        try:
-            results[label] = simulate(setup.plant, controller, setup.reference, **setup.options())
-        except SimulationError as exc:
-            raise SimulationError(
-                f"scenario {setup.name!r}, controller {label!r}: {exc}",
-                time=exc.time,
-                joint=exc.joint,
-                run=exc.run,
-            ) from exc
-    return results
-
-
-def _simulate_many(
-    setup: Setup, controllers: Sequence[SlidingModeController]
-) -> list[SimResult | str]:
-    """Run ``controllers`` on ``setup`` in one batch; a diverging run becomes its error message."""
+    if on_diverge not in ("raise", "record"):
+        raise ValueError(f"on_diverge must be 'raise' or 'record', got {on_diverge!r}")
+    runs = dict(setup.controllers if controllers is None else controllers)
     opts = setup.options()
     seed = opts.pop("seed")
-    try:
-        batch = simulate_batch(setup.plant, list(controllers), setup.reference, seeds=seed, **opts)
-        return [batch[b] for b in range(len(batch))]
-    except SimulationError:
-        pass
-    out: list[SimResult | str] = []
-    for c in controllers:
+    done: dict[str, SimResult | str] = {}
+    pending = list(runs)
+    while pending:
         try:
-            out.append(simulate(setup.plant, c, setup.reference, seed=seed, **opts))
+            batch = simulate_batch(
+                setup.plant, [runs[label] for label in pending], setup.reference, seeds=seed, **opts
+            )
         except SimulationError as exc:
-            out.append(str(exc))
-    return out
+            # the batch names its first diverging run; that run alone says it in its own words
+            # (the others of the batch are run again without it)
+            label = pending.pop(exc.run)
+            try:
+                done[label] = simulate(setup.plant, runs[label], setup.reference, seed=seed, **opts)
+            except SimulationError as alone:
+                if on_diverge == "raise":
+                    raise SimulationError(
+                        f"scenario {setup.name!r}, controller {label!r}: {alone}",
+                        time=alone.time,
+                        joint=alone.joint,
+                        run=alone.run,
+                    ) from alone
+                done[label] = str(alone)
+            continue
+        done.update(zip(pending, (batch[b] for b in range(len(batch))), strict=True))
+        pending = []
+    return {label: done[label] for label in runs}
 
 
 # --------------------------------------------------------------------------------------------
@@ -480,10 +534,9 @@ def errata_table(scenario: Scenario, *, controller: str = "ftsmc") -> pd.DataFra
         fields["label"] = label.replace(" ", "-")
         specs.append(ControllerSpec(**fields))
     variant = scenario.model_copy(update={"controllers": specs})
-    setup = variant.build()
-    runs = _simulate_many(setup, list(setup.controllers.values()))
+    runs = simulate_setup(variant.build(), on_diverge="record")
     rows = []
-    for (label, description, _), run in zip(ERRATA, runs, strict=True):
+    for (label, description, _), run in zip(ERRATA, runs.values(), strict=True):
         if isinstance(run, str):
             rows.append(
                 {
@@ -536,8 +589,10 @@ def gain_grid(
 
     The scenario's first ``pdsmc``, ``tsmc`` and ``ftsmc`` controllers supply everything else
     (exponent, switching, width, law). PDSMC depends only on ``(k, alpha)`` and TSMC only on
-    ``(k, beta)``, so each is run once per distinct pair: one batch per controller type.
-    A diverged run has MSE NaN and the ranking does not hold there.
+    ``(k, beta)``, so each is run once per distinct pair; every run goes through one
+    :func:`simulate_setup`. The MSE is :func:`slidingarm.metrics.mse` averaged over the joints,
+    as in the ``mean`` rows of :func:`metrics_table`. A diverged run has MSE NaN and the ranking
+    does not hold there.
 
     Returns
     -------
@@ -556,26 +611,33 @@ def gain_grid(
     base = {name: scenario.controller_gains(i) for name, i in index.items()}
     model = setup.nominal
 
-    pd_keys = [(kk, a) for kk in k for a in linear]
-    ts_keys = [(kk, b) for kk in k for b in beta]
-    ft_keys = [(kk, a, b) for kk in k for a in linear for b in beta]
-    pd_ctrl = [PDSMC(model, **{**base["pdsmc"], "k": kk, "lam": a}) for kk, a in pd_keys]
-    ts_ctrl = [TSMC(model, **{**base["tsmc"], "k": kk, "beta": b}) for kk, b in ts_keys]
-    ft_ctrl = [
-        FTSMC(model, **{**base["ftsmc"], "k": kk, "alpha": a, "beta": b}) for kk, a, b in ft_keys
-    ]
-
-    def mse(runs: list[SimResult | str]) -> list[float]:
-        return [math.nan if isinstance(r, str) else float(np.mean((r.e) ** 2)) for r in runs]
-
-    mse_pd = dict(zip(pd_keys, mse(_simulate_many(setup, pd_ctrl)), strict=True))
-    mse_ts = dict(zip(ts_keys, mse(_simulate_many(setup, ts_ctrl)), strict=True))
-    mse_ft = dict(zip(ft_keys, mse(_simulate_many(setup, ft_ctrl)), strict=True))
-    gamma = float(ft_ctrl[0].to_dict()["gamma"])
-    switching = ft_ctrl[0].switching
+    # every run of the grid, keyed by controller and the gains it depends on
+    runs: dict[tuple[str, tuple[float, ...]], SlidingModeController] = {}
+    for kk in k:
+        for a in linear:
+            runs["pdsmc", (kk, a)] = PDSMC(model, **{**base["pdsmc"], "k": kk, "lam": a})
+        for b in beta:
+            runs["tsmc", (kk, b)] = TSMC(model, **{**base["tsmc"], "k": kk, "beta": b})
+        for a in linear:
+            for b in beta:
+                runs["ftsmc", (kk, a, b)] = FTSMC(
+                    model, **{**base["ftsmc"], "k": kk, "alpha": a, "beta": b}
+                )
+    labels = {key: f"{key[0]} {key[1]!r}" for key in runs}
+    results = simulate_setup(
+        setup, {labels[key]: c for key, c in runs.items()}, on_diverge="record"
+    )
+    # the mean over joints of slidingarm.metrics.mse, as in the mean rows of metrics_table
+    mse: dict[tuple[str, tuple[float, ...]], float] = {}
+    for key, label in labels.items():
+        r = results[label]
+        mse[key] = math.nan if isinstance(r, str) else float(np.mean(metric_mse(r.e)))
+    first = runs["ftsmc", (k[0], linear[0], beta[0])]
+    gamma = float(first.to_dict()["gamma"])
+    switching = first.switching
     rows = []
-    for kk, a, b in ft_keys:
-        p, t_, f = mse_pd[(kk, a)], mse_ts[(kk, b)], mse_ft[(kk, a, b)]
+    for kk, a, b in ((kk, a, b) for kk in k for a in linear for b in beta):
+        p, t_, f = mse["pdsmc", (kk, a)], mse["tsmc", (kk, b)], mse["ftsmc", (kk, a, b)]
         rows.append(
             {
                 "switching": switching,
@@ -586,10 +648,39 @@ def gain_grid(
                 "mse_pdsmc": p,
                 "mse_tsmc": t_,
                 "mse_ftsmc": f,
-                "ranking_holds": bool(f < t_ < p),
+                "ranking_holds": follows_ranking({"pdsmc": p, "tsmc": t_, "ftsmc": f}),
             }
         )
     return pd.DataFrame(rows)
+
+
+# --------------------------------------------------------------------------------------------
+# the paper's ranking
+
+
+def ranking_mse(metrics: pd.DataFrame, scenario: str, joint: str = "mean") -> dict[str, float]:
+    """The MSE (rad²) on ``joint`` (``"1"`` … ``"n"`` or ``"mean"``) of each controller of
+    :data:`RANKING` that ``scenario`` ran, in the order of :data:`RANKING` (best first).
+
+    ``metrics`` is a table of :func:`metrics_table` (columns ``scenario``, ``controller``,
+    ``joint``, ``mse``); a controller without a row there is left out.
+    """
+    rows = metrics[
+        (metrics["scenario"].astype(str) == str(scenario))
+        & (metrics["joint"].astype(str) == str(joint))
+    ]
+    found: dict[str, float] = {}
+    for controller, value in zip(rows["controller"].astype(str), rows["mse"], strict=True):
+        found.setdefault(controller, float(value))
+    return {c: found[c] for c in RANKING if c in found}
+
+
+def follows_ranking(mse: Mapping[str, float]) -> bool:
+    """Whether the MSEs of ``mse`` (by controller name) rise strictly in the order of
+    :data:`RANKING`, the paper's claim; controllers not in ``mse`` are not compared and a NaN
+    breaks the order."""
+    ordered = [mse[c] for c in RANKING if c in mse]
+    return all(a < b for a, b in itertools.pairwise(ordered))
 
 
 # --------------------------------------------------------------------------------------------
@@ -620,16 +711,22 @@ def checks_table(
     - no signal of any run holds NaN or inf.
     """
     rows = []
+    order = " < ".join(RANKING)
     for scenario in results:
         for joint, what in (("mean", "mean over joints"), ("1", "joint 1")):
-            values = {c: float(_mean_row(metrics, scenario, c, joint)["mse"]) for c in RANKING}
-            ordered = all(values[a] < values[b] for a, b in itertools.pairwise(RANKING))
+            values = ranking_mse(metrics, scenario, joint)
+            missing = [c for c in RANKING if c not in values]
+            if missing:
+                raise KeyError(
+                    f"no metrics for scenario {scenario!r}, controller {missing[0]!r}, "
+                    f"joint {joint!r}"
+                )
             rows.append(
                 _check(
-                    f"{scenario}: MSE ftsmc < tsmc < pdsmc ({what})",
+                    f"{scenario}: MSE {order} ({what})",
                     " < ".join(f"{values[c]:.4g}" for c in RANKING),
-                    "ftsmc < tsmc < pdsmc",
-                    ordered,
+                    order,
+                    follows_ranking(values),
                 )
             )
     for scenario, bound in SS_BOUND.items():

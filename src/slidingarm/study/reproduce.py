@@ -27,7 +27,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -39,7 +39,10 @@ from slidingarm.study import analysis as A
 from slidingarm.study.output import Staging, csv_bytes
 from slidingarm.study.shipped import SCENARIOS, load_shipped
 
-__all__ = ["Progress", "StudyOutput", "reproduce", "run", "run_scenario"]
+if TYPE_CHECKING:
+    from slidingarm.report import ScenarioKind
+
+__all__ = ["Progress", "StudyOutput", "reproduce", "run", "run_scenario", "scenario_kind"]
 
 #: Progress callback: ``progress(what, done, total)`` with ``done`` out of ``total`` steps.
 Progress = Callable[[str, int, int], None]
@@ -96,6 +99,24 @@ def run_scenario(scenario: Scenario | Setup) -> dict[str, SimResult]:
     """
     setup = scenario.build() if isinstance(scenario, Scenario) else scenario
     return A.simulate_setup(setup)
+
+
+def scenario_kind(scenario: Scenario) -> ScenarioKind | None:
+    """Which of the paper's cases (SPEC §7) a scenario runs, from its switching function and
+    its sensor: ``"sign"`` or ``"tanh"`` switching with exact measurements, or ``"noise"``,
+    tanh switching with Gaussian noise on the measured positions; None for anything else
+    (``sat`` switching, or noise under sign switching).
+
+    The report (:class:`slidingarm.report.ReportContext` ``kinds``) matches each scenario's
+    figures to the paper's by it.
+    """
+    noise = scenario.sensor.noise
+    noisy = noise is not None and bool(np.any(np.asarray(noise.sigma, dtype=float) > 0))
+    if scenario.switching == "tanh":
+        return "noise" if noisy else "tanh"
+    if scenario.switching == "sign" and not noisy:
+        return "sign"
+    return None
 
 
 # --------------------------------------------------------------------------------------------
@@ -229,6 +250,14 @@ def _warm_up() -> None:
     import slidingarm.plotting  # noqa: F401
 
 
+def _figure_names() -> tuple[str, ...]:
+    """The figures of one scenario, :data:`slidingarm.plotting.FIGURES` (this imports the
+    plotting stack, so it is called only when figures are drawn)."""
+    from slidingarm.plotting import FIGURES
+
+    return FIGURES
+
+
 def _default_jobs() -> int:
     return max(1, min(3, os.cpu_count() or 1))
 
@@ -264,12 +293,11 @@ def run(
         setup = scenario.build()
         name = setup.name
         n_ctrl = len(setup.controllers)
-        steps = _Steps(progress, 2 * n_ctrl + (7 if figures else 0) + 2)
-        results: dict[str, SimResult] = {}
-        for label in setup.controllers:
-            steps.start(f"{name}: simulating {label}")
-            results.update(A.simulate_setup(_only(setup, label)))
-            steps(f"{name}: simulated {label}")
+        n_figures = len(_figure_names()) if figures else 0
+        steps = _Steps(progress, 2 * n_ctrl + n_figures + 2)
+        steps.start(f"{name}: simulating")
+        results = A.simulate_setup(setup)
+        steps(f"{name}: simulated", n_ctrl)
         _stage_runs(staging, name, results, steps)
         metrics = A.metrics_table({name: results})
         _stage_table(staging, "metrics.csv", metrics)
@@ -278,7 +306,7 @@ def run(
         if figures:
             steps.start(f"{name}: figures")
             render_figures(name, results, _title(setup), staging.path / "figures")
-            steps(f"{name}: figures", 7)
+            steps(f"{name}: figures", n_figures)
         runtime = time.perf_counter() - t0
         staging.write_manifest(
             {
@@ -295,18 +323,12 @@ def run(
     return StudyOutput(Path(out_dir), metrics, runtime_s=time.perf_counter() - t0, files=files)
 
 
-def _only(setup: Setup, label: str) -> Setup:
-    from dataclasses import replace
-
-    return replace(setup, controllers={label: setup.controllers[label]})
-
-
 # --------------------------------------------------------------------------------------------
 # the study
 
 
 def reproduce(
-    out_dir: str | os.PathLike[str] = "slidingarm-results",
+    out_dir: str | os.PathLike[str],
     *,
     progress: Progress | None = None,
     command: str | None = None,
@@ -318,7 +340,8 @@ def reproduce(
     ----------
     out_dir : path
         The results folder; created if needed. Existing files of the same names are replaced;
-        ``manifest.json``, written last, lists the files of this run.
+        ``manifest.json``, written last, lists the files of this run. (The command line's
+        default is :data:`slidingarm.cli.DEFAULT_OUT`.)
     progress : callable, optional
         ``progress(what, done, total)``, called as the work advances.
     command : str, optional
@@ -339,10 +362,6 @@ def reproduce(
     try:
         scenarios = {name: load_shipped(name) for name in SCENARIOS}
         setups = {name: s.build() for name, s in scenarios.items()}
-        n_runs = sum(len(s.controllers) for s in setups.values())
-        total = n_runs * 2 + 7 * len(setups) + 2 + len(GRID_SCENARIOS) + 3
-        steps = _Steps(progress, total)
-
         # figures are drawn in worker processes while this one computes; the workers start
         # (and import matplotlib) while the scenarios are simulated
         workers = min(jobs, len(setups)) if jobs > 1 else 0
@@ -352,6 +371,11 @@ def reproduce(
             )
             for _ in range(workers):
                 pool.submit(_warm_up)
+        figures = _figure_names()
+
+        n_runs = sum(len(s.controllers) for s in setups.values())
+        total = n_runs * 2 + len(figures) * len(setups) + 2 + len(GRID_SCENARIOS) + 3
+        steps = _Steps(progress, total)
 
         results: dict[str, dict[str, SimResult]] = {}
         for name, setup in setups.items():
@@ -365,14 +389,12 @@ def reproduce(
         # last scenario's figures were drawn by one worker while the others idled)
         futures: dict[str, list[cf.Future[dict[str, Path]]]] = {}
         if pool is not None:
-            from slidingarm.plotting import FIGURES
-
             for name, setup in setups.items():
                 futures[name] = [
                     pool.submit(
                         render_figures, name, results[name], _title(setup), fig_dir, (figure,)
                     )
-                    for figure in FIGURES
+                    for figure in figures
                 ]
 
         for name in setups:
@@ -422,7 +444,7 @@ def reproduce(
                 steps.start(f"{name}: figures")
                 paths = render_figures(name, results[name], _title(setup), fig_dir)
             figure_paths[name] = {k: p.relative_to(staging.path) for k, p in paths.items()}
-            steps(f"{name}: figures", 7)
+            steps(f"{name}: figures", len(figures))
         if pool is not None:
             pool.shutdown()
             pool = None
@@ -443,6 +465,11 @@ def reproduce(
             grid=grid,
             checks=checks,
             figures=figure_paths,
+            kinds={
+                name: kind
+                for name, scenario in scenarios.items()
+                if (kind := scenario_kind(scenario)) is not None
+            },
             meta=meta,
         )
         steps.start("report")
