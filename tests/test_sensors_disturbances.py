@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from _numerics import rk4
 from slidingarm import (
     FTSMC,
     PAPER_Q0,
@@ -53,20 +54,6 @@ def ftsmc(switching: str = "tanh") -> FTSMC:
 
 def run(sensor: Sensor | None = None, t_final: float = 1.0, **kw: Any) -> SimResult:
     return simulate(ARM, ftsmc(), REF, q0=PAPER_Q0, t_final=t_final, dt=DT, sensor=sensor, **kw)
-
-
-def rk4(q: np.ndarray, qd: np.ndarray, tau: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    def f(x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return ARM.forward_dynamics(x, v, tau)
-
-    k1v, k1a = qd, f(q, qd)
-    k2v, k2a = qd + h / 2 * k1a, f(q + h / 2 * k1v, qd + h / 2 * k1a)
-    k3v, k3a = qd + h / 2 * k2a, f(q + h / 2 * k2v, qd + h / 2 * k2a)
-    k4v, k4a = qd + h * k3a, f(q + h * k3v, qd + h * k3a)
-    return (
-        q + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v),
-        qd + h / 6 * (k1a + 2 * k2a + 2 * k3a + k4a),
-    )
 
 
 # ---------------------------------------------------------------------------- position noise
@@ -465,7 +452,7 @@ def test_the_plant_receives_tau_plus_the_disturbance_held() -> None:
     r = run(t_final=0.2, disturbances=[dist])
     d = dist.torque(r.t, N, np.random.default_rng(0))
     for k in range(0, r.t.shape[0] - 1, 10):
-        q, qd = rk4(r.q[k], r.qd[k], r.tau[k] + d[k], DT)
+        q, qd = rk4(ARM, r.q[k], r.qd[k], r.tau[k] + d[k], DT)
         np.testing.assert_allclose(q, r.q[k + 1], rtol=0, atol=1e-13)
         np.testing.assert_allclose(qd, r.qd[k + 1], rtol=0, atol=1e-11)
     # and the recorded tau is the controller's alone

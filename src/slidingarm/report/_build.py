@@ -30,6 +30,7 @@ from slidingarm.report._format import (
 )
 from slidingarm.study.analysis import (
     ALTERNATING,
+    CONVERGENCE_COLUMNS,
     LATE_FRACTION,
     PAPER_MSE_SWITCHING,
     RANKING,
@@ -421,20 +422,7 @@ def _convergence_section(ctx: ReportContext) -> str:
             "t_s(|e_r|) − t_s(δ), e_r being the error at reaching. PDSMC's linear surface "
             "converges only asymptotically, so it has no formula.",
             "",
-            frame_table(
-                ctx.convergence,
-                [
-                    "scenario",
-                    "controller",
-                    "joint",
-                    "t_reach",
-                    "e_at_reach",
-                    "t_s_formula",
-                    "t_s_measured",
-                    "rel_error",
-                    "band",
-                ],
-            ),
+            frame_table(ctx.convergence, list(CONVERGENCE_COLUMNS)),
         ]
     )
 

@@ -31,6 +31,7 @@ from slidingarm.simulate import SimulationError, simulate, simulate_batch
 __all__ = [
     "ALTERNATING",
     "CONVERGENCE_BAND",
+    "CONVERGENCE_COLUMNS",
     "GRID_BETA",
     "GRID_K",
     "GRID_LINEAR",
@@ -397,6 +398,20 @@ def convergence(result: SimResult, controller: SlidingModeController) -> pd.Data
     return pd.DataFrame(rows)
 
 
+#: Columns of :func:`convergence_table` (and of ``convergence.csv``), in order.
+CONVERGENCE_COLUMNS: tuple[str, ...] = (
+    "scenario",
+    "controller",
+    "joint",
+    "t_reach",
+    "e_at_reach",
+    "t_s_formula",
+    "t_s_measured",
+    "rel_error",
+    "band",
+)
+
+
 def convergence_table(
     results: Mapping[str, Mapping[str, SimResult]],
     setups: Mapping[str, Setup],
@@ -413,17 +428,7 @@ def convergence_table(
                 table.insert(0, "controller", label)
                 table.insert(0, "scenario", scenario)
                 frames.append(table)
-    columns = [
-        "scenario",
-        "controller",
-        "joint",
-        "t_reach",
-        "e_at_reach",
-        "t_s_formula",
-        "t_s_measured",
-        "rel_error",
-        "band",
-    ]
+    columns = list(CONVERGENCE_COLUMNS)
     if not frames:
         return pd.DataFrame(columns=columns)
     return pd.concat(frames, ignore_index=True)[columns]
