@@ -109,8 +109,12 @@ def test_plot_functions_draw_into_given_axes(kind: str) -> None:
 
 
 def _as(res: SimResult, controller: str) -> SimResult:
-    """``res`` recorded as a run of ``controller`` (only the name matters to the unit)."""
-    return dataclasses.replace(res, params={"controller": {"controller": controller}})
+    """``res`` recorded as a run of ``controller``: its name and the unit of ``s`` that the
+    controller records (NTSMC's s = e + ... is an angle)."""
+    unit = "rad" if controller == "ntsmc" else "rad/s"
+    return dataclasses.replace(
+        res, params={"controller": {"controller": controller}, "s_unit": unit}
+    )
 
 
 @pytest.mark.parametrize(

@@ -224,7 +224,7 @@ def test_batch_validation() -> None:
     two = PlanarArm((1.0, 1.0), (1.0, 1.0))
     with pytest.raises(ValueError, match=r"all plants must have the same number of joints"):
         simulate_batch([ARM, two], ftsmc(), REF, q0=PAPER_Q0, t_final=0.01, dt=DT)
-    with pytest.raises(ValueError, match=r"^plant must be a PlanarArm \(or a sequence of them\)"):
+    with pytest.raises(TypeError, match=r"^plant must be an arm model or a SteppedPlant \(or a sequence of them\)"):
         simulate_batch([ARM, "arm"], ftsmc(), REF, q0=PAPER_Q0, t_final=0.01, dt=DT)  # type: ignore[list-item]
     with pytest.raises(ValueError, match=r"^plant must not be empty$"):
         simulate_batch([], ftsmc(), REF, q0=PAPER_Q0, t_final=0.01, dt=DT)
@@ -312,10 +312,7 @@ def _sim(**kw: Any) -> Any:
         ({"dt": 0.0}, r"dt must be a finite sample time > 0 s, got 0\.0"),
         ({"dt": -5e-4}, r"dt must be a finite sample time > 0 s, got -0\.0005"),
         ({"dt": math.nan}, r"dt must be a finite sample time > 0 s, got nan"),
-        ({"dt": "fast"}, r"t_final and dt must be numbers"),
         ({"substeps": 0}, r"substeps must be an integer >= 1, got 0"),
-        ({"substeps": 2.0}, r"substeps must be an integer >= 1, got 2\.0"),
-        ({"substeps": True}, r"substeps must be an integer >= 1, got True"),
         ({"q0": (0.1, 0.2)}, r"q0 must have shape \(3,\) or \(B, 3\), got \(2,\)"),
         ({"q0": np.zeros((2, N))}, r"q0 must have shape \(3,\) for one run; use simulate_batch"),
         ({"q0": (0.1, math.nan, 0.2)}, r"q0 must be finite"),
@@ -324,7 +321,6 @@ def _sim(**kw: Any) -> Any:
         ({"qd0": (0.0, math.nan, 0.0)}, r"qd0 must be finite"),
         ({"qd_limit": 0.0}, r"qd_limit must be a finite speed > 0 rad/s, got 0\.0"),
         ({"qd_limit": math.inf}, r"qd_limit must be a finite speed > 0 rad/s, got inf"),
-        ({"seed": 1.5}, r"seed must be an integer, got 1\.5"),
         (
             {"torque_limit": 0.0},
             r"torque_limit must be > 0 N m, a scalar or one per joint \(3\), got 0\.0",
@@ -337,18 +333,46 @@ def _sim(**kw: Any) -> Any:
         ),
         ({"torque_limit": (10.0, 0.0, 10.0)}, r"torque_limit must be > 0 N m"),
         ({"torque_limit": np.ones((3, 3))}, r"torque_limit must be > 0 N m"),
-        ({"plant": "paper"}, r"plant must be a PlanarArm, got str"),
-        ({"controller": None}, r"controller must be a SlidingModeController, got NoneType"),
-        ({"sensor": GaussianNoise(0.1)}, r"sensor must be a Sensor, got GaussianNoise"),
-        (
-            {"disturbances": [ModelMismatch(payload=1.0)]},
-            r"disturbances must be torque disturbances .*got ModelMismatch; a model mismatch belongs in the plant",
-        ),
     ],
 )
 def test_validation(kwargs: dict[str, Any], match: str) -> None:
     with pytest.raises(ValueError, match=match):
         _sim(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"dt": "fast"}, r"^dt must be a number \(s\), got str 'fast'$"),
+        ({"t_final": "0.01"}, r"^t_final must be a number \(s\), got str '0\.01'$"),
+        ({"t_final": True}, r"^t_final must be a number \(s\), got bool True$"),
+        ({"substeps": 2.0}, r"substeps must be an integer >= 1, got 2\.0"),
+        ({"substeps": True}, r"substeps must be an integer >= 1, got True"),
+        ({"seed": 1.5}, r"seed must be an integer, got 1\.5"),
+        ({"seed": b"1"}, r"seed must be an integer, got b'1'"),
+        ({"torque_limit": True}, r"^torque_limit must be numbers, got bool True$"),
+        ({"torque_limit": "150"}, r"^torque_limit must be numbers, got str '150'$"),
+        ({"q0": "0.1 0.2 0.3"}, r"^q0 must be numbers, got str"),
+        ({"q0": {0.1, 0.2, 0.3}}, r"^q0 must be numbers, got set"),
+        ({"qd_limit": "1e4"}, r"^qd_limit must be a number \(rad/s\), got '1e4'$"),
+        ({"plant": "paper"}, r"^plant must be an arm model \(PlanarArm, \.\.\.\) or a SteppedPlant, got str$"),
+        ({"controller": None}, r"^controller must be a Controller, got NoneType$"),
+        ({"sensor": GaussianNoise(0.1)}, r"^sensor must be a Sensor \(or a sequence of them\), got GaussianNoise$"),
+        (
+            {"disturbances": [ModelMismatch(payload=1.0)]},
+            r"disturbances must be torque disturbances .*got ModelMismatch; a model mismatch belongs in the plant",
+        ),
+    ],
+)  # fmt: skip
+def test_wrong_types_raise_type_error(kwargs: dict[str, Any], match: str) -> None:
+    with pytest.raises(TypeError, match=match):
+        _sim(**kwargs)
+
+
+def test_batch_seeds_reject_bytes_and_booleans() -> None:
+    for seeds, match in [(b"1", r"seeds must be an integer or a sequence"), ([1, True], r"seeds must be integers, got True")]:
+        with pytest.raises(TypeError, match=match):
+            simulate_batch(ARM, ftsmc(), REF, q0=PAPER_Q0, t_final=0.01, dt=DT, seeds=seeds)
 
 
 def test_joint_counts_must_agree() -> None:

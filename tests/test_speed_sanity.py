@@ -94,25 +94,24 @@ def test_time_loop_does_no_reference_counting(monkeypatch: pytest.MonkeyPatch) -
     """Every array the time loop touches is borrowed: no atomic increments per sample (they
     once took a fifth of the loop's time)."""
     captured: list[tuple[object, ...]] = []
-    real = E._run_block
+    real = E.run_one
 
     def spy(*args: object) -> None:
         # copies: the outputs become read-only results afterwards
         captured.append(tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args))
         real(*args)
 
-    monkeypatch.setattr(E, "_run_block", spy)
+    monkeypatch.setattr(E, "run_one", spy)
     arm = PlanarArm.paper()
     ctrl = FTSMC(arm, alpha=2, beta=2, p=5, q=3, k=20)
     simulate(arm, ctrl, PaperReference(), q0=PAPER_Q0, t_final=0.01, dt=5e-4)
     args = captured[0]
-    n = arm.n
     # compile the per-run loop afresh (a cached one cannot show its IR)
-    fresh = njit(cache=False, nogil=True, error_model="numpy")(E._run_one.py_func)
-    fresh(0, *args, np.empty((E._MATRICES + 2 * n, n)))
+    fresh = njit(cache=False, nogil=True, error_model="numpy")(real.py_func)
+    fresh(*args)
     ir = fresh.inspect_llvm(fresh.signatures[0])
     body = next(
-        f for f in re.split(r"\n(?=define )", ir) if f.startswith("define") and "_run_one" in f
+        f for f in re.split(r"\n(?=define )", ir) if f.startswith("define") and "run_one" in f
     )
     # a few on entry and exit at most; the loop over the samples has none
     assert body.count("@NRT_incref") <= 4

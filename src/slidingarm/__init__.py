@@ -9,12 +9,16 @@ from slidingarm.control import (
     NTSMC,
     PDSMC,
     TSMC,
+    Controller,
+    ControllerCheckError,
+    CustomController,
     SlidingModeController,
+    check_controller,
     ftsm_convergence_time,
     tsm_convergence_time,
 )
 from slidingarm.disturbances import ConstantTorque, ModelMismatch, RandomTorque, SinusoidalTorque
-from slidingarm.models import PlanarArm
+from slidingarm.models import ArmModel, PlanarArm, SteppedArm, SteppedPlant
 from slidingarm.references import (
     PAPER_DT,
     PAPER_Q0,
@@ -36,7 +40,7 @@ from slidingarm.sensors import (
     SensorFault,
     TrueVelocity,
 )
-from slidingarm.simulate import SimulationError, simulate, simulate_batch
+from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
 
 __all__ = [
     "FTSMC",
@@ -47,11 +51,16 @@ __all__ = [
     "PAPER_T_FINAL",
     "PDSMC",
     "TSMC",
+    "ArmModel",
     "BackwardDifference",
     "BatchResult",
     "CallableReference",
     "ConstantTorque",
+    "Controller",
+    "ControllerCheckError",
+    "CustomController",
     "DirtyDerivative",
+    "Every",
     "GaussianNoise",
     "LevantDifferentiator",
     "ModelMismatch",
@@ -66,9 +75,12 @@ __all__ = [
     "SimulationError",
     "SinusoidalTorque",
     "SlidingModeController",
+    "SteppedArm",
+    "SteppedPlant",
     "TableReference",
     "TrueVelocity",
     "__version__",
+    "check_controller",
     "ftsm_convergence_time",
     "simulate",
     "simulate_batch",

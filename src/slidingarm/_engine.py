@@ -1,40 +1,40 @@
-"""The compiled closed loop: digital sliding-mode control of a planar arm (SPEC §5).
+"""The closed loop, written once over a plant handle and a law handle (SPEC §5).
 
-Per sample ``k`` (time ``t_k = k dt``) and run ``b``:
+Per sample ``k`` (time ``t_k = k dt``) of a run:
 
 1. measurement: ``q̃_k = q_k + add_k``, except where ``hold_k`` is set, where the previous
    measurement is repeated (stuck sensor, dropout);
 2. velocity estimate from the true velocity, a backward difference, a dirty derivative or
    Levant's robust exact differentiator;
-3. the controller computes ``τ_k`` and ``s_k``; actuator limits clip ``τ_k``;
-4. the plant is integrated over ``[t_k, t_k+1)`` with ``τ_k + d_k`` held (zero-order hold) by
-   RK4 with ``substeps`` equal substeps.
+3. the law computes ``τ_k`` and ``s_k`` (:func:`slidingarm.control._dispatch.law_into`);
+   actuator limits clip ``τ_k``; the plant's input ``τ_k + d_k`` is held over the interval;
+4. the plant is advanced over ``[t_k, t_k+1)``: ``substeps`` RK4 steps of a compiled model
+   (:func:`slidingarm.models._dispatch.rk4_step`), or a Python-stepped plant's ``step``;
+5. status: a non-finite torque, state or sliding variable, a mass matrix that is no longer
+   positive definite, or a joint speed beyond ``qd_limit`` ends the run, recording
+   ``[code, sample, joint]``.
 
-Every per-run input array has a leading batch axis that is either ``B`` or 1 (shared by all runs).
-The runs of a batch are shared among threads (:func:`run_batch`). The time loop allocates
-nothing and does no reference counting: every array it touches is a :func:`_borrow` alias.
-The plant's forward dynamics is the articulated-body algorithm; the controller leaves the
-sines and cosines of the measured angles behind, and when the measurement is exact the first
-RK4 stage reuses them, the other stages rotate them by the stage's step
-(:func:`slidingarm.models._kernels.shifted_angles_into`).
+Steps 1-3 and 5 are the *step pieces* :func:`control_sample` and :func:`check_state`: the
+compiled per-run loop :func:`run_one` inlines them, and :func:`control_step` /
+:func:`state_status` expose the very same code to the Python-stepped loop
+(:func:`slidingarm.simulate` with a :class:`~slidingarm.plants.SteppedPlant`), so both loops
+have one semantics. The time loop allocates nothing and does no reference counting: every
+array it touches is a :func:`_borrow` alias. Workspace rows: :data:`WORKSPACE_ROWS`.
 """
 
 from __future__ import annotations
 
-import inspect
-import itertools
 import math
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
-from numba import config, njit, types
+from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
-from slidingarm.models import _kernels as MK
+from slidingarm.models import _dispatch as MD
 
 VEL_TRUE = 0
 VEL_DIFFERENCE = 1
@@ -63,7 +63,7 @@ def _borrow(typingctx, arr):  # type: ignore[no-untyped-def]
     increments and decrements, which then took a fifth of the loop's time. The alias has a
     null memory-info pointer, so all of them compile away. The caller must keep ``arr``
     alive while the alias is in use: here every borrowed array is (a view of) an argument of
-    :func:`_run_one`, which :func:`_run_block` holds.
+    :func:`run_one`, which its caller holds.
     """
     if not isinstance(arr, types.Array):
         return None
@@ -75,64 +75,8 @@ def _borrow(typingctx, arr):  # type: ignore[no-untyped-def]
     return arr(arr), codegen
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _rk4_step(
-    arm: np.ndarray,
-    g: float,
-    q: np.ndarray,
-    qd: np.ndarray,
-    tau: np.ndarray,
-    h: float,
-    known: bool,
-    k: np.ndarray,
-    dq: np.ndarray,
-    qtmp: np.ndarray,
-    vtmp: np.ndarray,
-    base: np.ndarray,
-    work: np.ndarray,
-) -> bool:
-    """Advance ``(q, qd)`` in place by one RK4 step of length ``h`` with constant ``tau``.
-
-    ``k`` is a (4, n) scratch array for the four acceleration stages (the velocity stages are
-    recomputed from them); ``dq``, ``qtmp``, ``vtmp`` (n,) and ``base`` (2, n) are scratch.
-    The stages' sines and cosines are those of ``q`` (in ``work`` rows 0-1 already if
-    ``known``, as the controller leaves them when it measured ``q`` exactly) shifted by the
-    stage's step. Returns ``False`` if a mass matrix was not positive definite.
-    """
-    n = q.shape[0]
-    if not known:
-        MK.angles_into(q, work)
-    for i in range(n):
-        base[0, i] = work[0, i]
-        base[1, i] = work[1, i]
-        vtmp[i] = qd[i]
-    # Stage s is at (q + c_s h v_{s-1}, qd + c_s h a_{s-1}), c = (1/2, 1/2, 1), with
-    # v_1 = qd and v_s = qd + h/2 a_{s-1} for s = 2, 3. One loop, so that the inlined
-    # forward dynamics is compiled once rather than once per stage.
-    ok = True
-    for s in range(4):
-        if s > 0:
-            c = 1.0 if s == 3 else 0.5
-            for i in range(n):
-                v_prev = qd[i] if s == 1 else qd[i] + 0.5 * h * k[s - 2, i]
-                dq[i] = c * h * v_prev
-                qtmp[i] = q[i] + dq[i]
-                vtmp[i] = qd[i] + c * h * k[s - 1, i]
-            MK.shifted_angles_into(base, dq, qtmp, work)
-        ok &= MK.aba_from_angles_into(arm, g, vtmp, tau, k[s], work)
-    for i in range(n):
-        v1 = qd[i]
-        v2 = qd[i] + 0.5 * h * k[0, i]
-        v3 = qd[i] + 0.5 * h * k[1, i]
-        v4 = qd[i] + h * k[2, i]
-        q[i] += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
-        qd[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
-    return ok
-
-
-# rows of the per-run workspace: vectors (n,), the stage's base sines and cosines (2 rows), the
-# RK4 stages (4 rows), the control work rows, and the controller's M and its Cholesky factor
-# (n rows each)
+# rows of the per-run workspace (n columns): state and measurement vectors, the held input,
+# the RK4 scratch, the control work rows, and the (n, n) matrices M and its Cholesky factor
 _Q = 0
 _QD = 1
 _QM = 2
@@ -140,153 +84,53 @@ _QDM = 3
 _QM_PREV = 4
 _Z0 = 5
 _TAU_APPLIED = 6
-_ST_STATE = 7
-_QTMP = 8
-_VTMP = 9
-_DQ = 10
-_BASE = 11  # 2 rows
-_K = 13  # 4 rows
-_WORK = _K + 4
+_RK4 = 7
+_WORK = _RK4 + MD.RK4_ROWS
 _MATRICES = _WORK + CK.CONTROL_WORK_ROWS
 
 
-def _run_batch(
-    plant_arm: np.ndarray,
-    plant_g: np.ndarray,
-    ci: np.ndarray,
-    cf: np.ndarray,
-    ctrl_arm: np.ndarray,
-    ctrl_g: np.ndarray,
-    q0: np.ndarray,
-    qd0: np.ndarray,
+def workspace_rows(n: int) -> int:
+    """Rows of the ``(rows, n)`` workspace of one run."""
+    return _MATRICES + 2 * n
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def control_sample(
+    k: int,
+    t_k: float,
+    dt: float,
+    law_code: int,
+    kernel: Any,
+    lp: np.ndarray,
+    lstate: np.ndarray,
+    mkind: int,
+    mp: np.ndarray,
+    mg: float,
+    madd: np.ndarray,
+    mhold: np.ndarray,
+    vcode: int,
+    vfb: np.ndarray,
     q_ref: np.ndarray,
     qd_ref: np.ndarray,
     qdd_ref: np.ndarray,
-    meas_add: np.ndarray,
-    meas_hold: np.ndarray,
-    vel_code: np.ndarray,
-    vf: np.ndarray,
-    dist: np.ndarray,
-    tau_max: np.ndarray,
-    dt: float,
-    substeps: int,
-    qd_limit: float,
-    q_out: np.ndarray,
-    qd_out: np.ndarray,
-    qm_out: np.ndarray,
-    qdm_out: np.ndarray,
-    tau_out: np.ndarray,
-    s_out: np.ndarray,
-    status: np.ndarray,
-) -> None:
-    """Simulate ``B`` closed-loop runs; see the module docstring.
+    tmax: np.ndarray,
+    db: np.ndarray,
+    ws: np.ndarray,
+    q_b: np.ndarray,
+    qd_b: np.ndarray,
+    qm_b: np.ndarray,
+    qdm_b: np.ndarray,
+    tau_b: np.ndarray,
+    s_b: np.ndarray,
+) -> tuple[int, bool]:
+    """Steps 1-3 of sample ``k``: measure, estimate the velocity, run the law, clip, hold.
 
-    Shapes (``B'`` is ``B`` or 1): ``plant_arm, ctrl_arm`` (B', 4, n); ``plant_g, ctrl_g`` (B',);
-    ``ci`` (B', NCI) int; ``cf`` (B', NCF, n); ``q0, qd0`` (B', n); ``q_ref, qd_ref, qdd_ref``
-    (T, n); ``meas_add`` (B', T, n); ``meas_hold`` (B', T, n) bool; ``vel_code`` (B',) int;
-    ``vf`` (B', NVF, n); ``dist`` (B', T, n); ``tau_max`` (B', n). Outputs (B, T, n);
-    ``status`` (B, 3) receives ``[code, sample, joint]`` of the first failure (code 0: none).
-
-    The runs are shared out, in contiguous blocks, among up to ``numba.config.NUMBA_NUM_THREADS``
-    threads (the compiled loop releases the GIL); each run is computed alone, so the results
-    do not depend on the split.
+    Reads the plant state from ``ws`` rows ``_Q``, ``_QD``; leaves the held input
+    ``τ_k + d_k`` in row ``_TAU_APPLIED``; records sample ``k`` of every output. Returns the
+    first joint whose torque or ``s`` is not finite (-1 if none) and whether the measurement
+    was the exact position (then ``ws``'s work rows hold the kinematics of the plant's ``q``).
     """
-    args = (
-        plant_arm, plant_g, ci, cf, ctrl_arm, ctrl_g, q0, qd0, q_ref, qd_ref, qdd_ref,
-        meas_add, meas_hold, vel_code, vf, dist, tau_max, dt, substeps, qd_limit,
-        q_out, qd_out, qm_out, qdm_out, tau_out, s_out, status,
-    )  # fmt: skip
-    nb = q_out.shape[0]
-    nthreads = min(nb, int(config.NUMBA_NUM_THREADS))
-    if nthreads <= 1:
-        _run_block(*args)
-        return
-    bounds = [nb * i // nthreads for i in range(nthreads + 1)]
-    with ThreadPoolExecutor(nthreads) as pool:
-        blocks = [
-            pool.submit(_run_block, *_block(args, nb, lo, hi))
-            for lo, hi in itertools.pairwise(bounds)
-        ]
-        for block in blocks:
-            block.result()
-
-
-#: :func:`_run_batch`, typed as loosely as the compiled dispatcher it replaced, so that callers
-#: may pass the outputs as ``*outputs``.
-run_batch: Callable[..., None] = _run_batch
-
-
-# positions among _run_batch's arguments of q_ref, qd_ref, qdd_ref (their leading axis is
-# time, not runs) and of q_out, read from its signature so that they follow any change to it
-_ARGS = list(inspect.signature(_run_batch).parameters)
-_TIME_ARGS = tuple(_ARGS.index(name) for name in ("q_ref", "qd_ref", "qdd_ref"))
-_Q_OUT_ARG = _ARGS.index("q_out")
-
-
-def _block(args: tuple[object, ...], nb: int, lo: int, hi: int) -> tuple[object, ...]:
-    """``args`` of :func:`_run_batch` for runs ``lo:hi``: every array with a leading batch axis
-    of ``nb`` is sliced (one of 1 is shared)."""
-    return tuple(
-        a[lo:hi]
-        if isinstance(a, np.ndarray) and a.ndim > 0 and a.shape[0] == nb and i not in _TIME_ARGS
-        else a
-        for i, a in enumerate(args)
-    )
-
-
-def _run_block(*args: Any) -> None:
-    """:func:`_run_batch` (the same arguments) in the calling thread: one compiled
-    :func:`_run_one` per run.
-
-    The loop over runs stays in Python (a few microseconds per run against milliseconds of
-    compiled work) so that only :func:`_run_one` is compiled: a compiled wrapper around it
-    cost another 2.5 s of compilation on a cold cache.
-    """
-    q_out = args[_Q_OUT_ARG]
-    n = q_out.shape[2]
-    workspace = np.empty((_MATRICES + 2 * n, n))
-    for b in range(q_out.shape[0]):
-        _run_one(b, *args, workspace)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _run_one(
-    b: int,
-    plant_arm: np.ndarray,
-    plant_g: np.ndarray,
-    ci: np.ndarray,
-    cf: np.ndarray,
-    ctrl_arm: np.ndarray,
-    ctrl_g: np.ndarray,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    q_ref: np.ndarray,
-    qd_ref: np.ndarray,
-    qdd_ref: np.ndarray,
-    meas_add: np.ndarray,
-    meas_hold: np.ndarray,
-    vel_code: np.ndarray,
-    vf: np.ndarray,
-    dist: np.ndarray,
-    tau_max: np.ndarray,
-    dt: float,
-    substeps: int,
-    qd_limit: float,
-    q_out: np.ndarray,
-    qd_out: np.ndarray,
-    qm_out: np.ndarray,
-    qdm_out: np.ndarray,
-    tau_out: np.ndarray,
-    s_out: np.ndarray,
-    status: np.ndarray,
-    workspace: np.ndarray,
-) -> None:
-    """Run ``b`` of :func:`_run_batch`, given a ``workspace`` of ``_MATRICES + 2 n`` rows of
-    ``n``. Every array the time loop touches is a :func:`_borrow` alias of an argument."""
-    nt = q_out.shape[1]
-    n = q_out.shape[2]
-    h = dt / substeps
-    ws = _borrow(workspace)
+    n = ws.shape[1]
     q = ws[_Q]
     qd = ws[_QD]
     qm = ws[_QM]
@@ -294,143 +138,248 @@ def _run_one(
     qm_prev = ws[_QM_PREV]
     z0 = ws[_Z0]
     tau_applied = ws[_TAU_APPLIED]
-    st_state = ws[_ST_STATE]
-    qtmp = ws[_QTMP]
-    vtmp = ws[_VTMP]
-    dq = ws[_DQ]
-    base = ws[_BASE : _BASE + 2]
-    kst = ws[_K : _K + 4]
     work = ws[_WORK:_MATRICES]
     mmat = ws[_MATRICES : _MATRICES + n]
     lw = ws[_MATRICES + n : _MATRICES + 2 * n]
-    # this run's inputs and outputs
-    pa = _borrow(plant_arm[b if plant_arm.shape[0] > 1 else 0])
-    pg = plant_g[b if plant_g.shape[0] > 1 else 0]
-    cib = _borrow(ci[b if ci.shape[0] > 1 else 0])
-    cfb = _borrow(cf[b if cf.shape[0] > 1 else 0])
-    ca = _borrow(ctrl_arm[b if ctrl_arm.shape[0] > 1 else 0])
-    cg = ctrl_g[b if ctrl_g.shape[0] > 1 else 0]
-    madd = _borrow(meas_add[b if meas_add.shape[0] > 1 else 0])
-    mhold = _borrow(meas_hold[b if meas_hold.shape[0] > 1 else 0])
-    vcode = vel_code[b if vel_code.shape[0] > 1 else 0]
-    vfb = _borrow(vf[b if vf.shape[0] > 1 else 0])
-    db = _borrow(dist[b if dist.shape[0] > 1 else 0])
-    tmax = _borrow(tau_max[b if tau_max.shape[0] > 1 else 0])
+    # --- measurement
+    for j in range(n):
+        if k > 0 and mhold[k, j]:
+            qm[j] = qm_prev[j]
+        else:
+            qm[j] = q[j] + madd[k, j]
+    # --- velocity estimate (state in qdm / z0, initialised at the known qd0)
+    if vcode == VEL_TRUE:
+        for j in range(n):
+            qdm[j] = qd[j]
+    elif k == 0:
+        for j in range(n):
+            qdm[j] = qd[j]
+            z0[j] = qm[j]
+    elif vcode == VEL_DIFFERENCE:
+        for j in range(n):
+            qdm[j] = (qm[j] - qm_prev[j]) / dt
+    elif vcode == VEL_FILTERED:
+        for j in range(n):
+            tf = vfb[VF_TIME_CONSTANT, j]
+            qdm[j] = (tf * qdm[j] + (qm[j] - qm_prev[j])) / (tf + dt)
+    else:
+        # first-order robust exact differentiator (Levant 1998), explicit Euler
+        for j in range(n):
+            lip = vfb[VF_LIPSCHITZ, j]
+            sigma = z0[j] - qm[j]
+            sg = 1.0 if sigma > 0.0 else (-1.0 if sigma < 0.0 else 0.0)
+            z0[j] += dt * (-vfb[VF_LAMBDA1, j] * math.sqrt(lip * abs(sigma)) * sg + qdm[j])
+            qdm[j] += dt * (-vfb[VF_LAMBDA0, j] * lip * sg)
+    exact = True
+    for j in range(n):
+        qm_prev[j] = qm[j]
+        exact &= qm[j] == q[j]
+    # --- control
+    LD.law_into(
+        law_code, kernel, t_k, lp, lstate, mkind, mp, mg, qm, qdm, q_ref[k], qd_ref[k],
+        qdd_ref[k], dt, tau_b[k], s_b[k], mmat, lw, work,
+    )  # fmt: skip
+    bad = -1
+    for j in range(n):
+        t_j = tau_b[k, j]
+        if t_j > tmax[j]:
+            t_j = tmax[j]
+        elif t_j < -tmax[j]:
+            t_j = -tmax[j]
+        tau_b[k, j] = t_j
+        tau_applied[j] = t_j + db[k, j]
+        q_b[k, j] = q[j]
+        qd_b[k, j] = qd[j]
+        qm_b[k, j] = qm[j]
+        qdm_b[k, j] = qdm[j]
+        if bad < 0 and not (math.isfinite(t_j) and math.isfinite(s_b[k, j])):
+            bad = j
+    return bad, exact
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def check_state(q: np.ndarray, qd: np.ndarray, ok: bool, qd_limit: float) -> tuple[int, int]:
+    """Step 5 after the plant moved: ``(code, joint)`` of the first failure, ``(0, -1)`` if none.
+
+    An overflow inside a step also fails the pivot test, so finiteness is checked first: a
+    non-finite state is reported as such, with its joint, never as a singular ``M``.
+    """
+    n = q.shape[0]
+    for j in range(n):
+        if not (math.isfinite(q[j]) and math.isfinite(qd[j])):
+            return STATUS_NONFINITE, j
+    if not ok:
+        return STATUS_SINGULAR, 0
+    for j in range(n):
+        if abs(qd[j]) > qd_limit:
+            return STATUS_RUNAWAY, j
+    return STATUS_OK, -1
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def run_one(
+    pkind: int,
+    pp: np.ndarray,
+    pg: float,
+    law_code: int,
+    kernel: Any,
+    lp: np.ndarray,
+    lstate: np.ndarray,
+    mkind: int,
+    mp: np.ndarray,
+    mg: float,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    tgrid: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    madd: np.ndarray,
+    mhold: np.ndarray,
+    vcode: int,
+    vfb: np.ndarray,
+    dist: np.ndarray,
+    tmax: np.ndarray,
+    dt: float,
+    substeps: int,
+    qd_limit: float,
+    q_b: np.ndarray,
+    qd_b: np.ndarray,
+    qm_b: np.ndarray,
+    qdm_b: np.ndarray,
+    tau_b: np.ndarray,
+    s_b: np.ndarray,
+    status: np.ndarray,
+    workspace: np.ndarray,
+) -> None:
+    """One closed-loop run of a compiled plant ``(pkind, pp, pg)`` under the law ``(law_code,
+    kernel, lp, lstate)`` with nominal model ``(mkind, mp, mg)``; see the module docstring.
+
+    Shapes: ``q0, qd0, tmax`` (n,); ``tgrid`` (T,); ``q_ref, qd_ref, qdd_ref, madd, mhold,
+    dist`` and the outputs (T, n); ``vfb`` (NVF, n); ``status`` (3,) receives ``[code,
+    sample, joint]`` of the first failure (code 0: none; the outputs after it are not
+    written); ``workspace`` is ``(workspace_rows(n), n)``.
+    """
+    nt = q_b.shape[0]
+    n = q_b.shape[1]
+    h = dt / substeps
+    ws = _borrow(workspace)
+    q = ws[_Q]
+    qd = ws[_QD]
+    rk = ws[_RK4:_WORK]
+    work = ws[_WORK:_MATRICES]
+    tau_applied = ws[_TAU_APPLIED]
+    pp = _borrow(pp)
+    lp = _borrow(lp)
+    lstate = _borrow(lstate)
+    mp = _borrow(mp)
+    madd = _borrow(madd)
+    mhold = _borrow(mhold)
+    vfb = _borrow(vfb)
+    dist = _borrow(dist)
+    tmax = _borrow(tmax)
     q_ref = _borrow(q_ref)
     qd_ref = _borrow(qd_ref)
     qdd_ref = _borrow(qdd_ref)
-    q_b = _borrow(q_out[b])
-    qd_b = _borrow(qd_out[b])
-    qm_b = _borrow(qm_out[b])
-    qdm_b = _borrow(qdm_out[b])
-    tau_b = _borrow(tau_out[b])
-    s_b = _borrow(s_out[b])
+    q_b = _borrow(q_b)
+    qd_b = _borrow(qd_b)
+    qm_b = _borrow(qm_b)
+    qdm_b = _borrow(qdm_b)
+    tau_b = _borrow(tau_b)
+    s_b = _borrow(s_b)
     for j in range(n):
-        q[j] = q0[b if q0.shape[0] > 1 else 0, j]
-        qd[j] = qd0[b if qd0.shape[0] > 1 else 0, j]
-        st_state[j] = 0.0
-    status[b, 0] = STATUS_OK
-    status[b, 1] = -1
-    status[b, 2] = -1
+        q[j] = q0[j]
+        qd[j] = qd0[j]
+    for j in range(lstate.shape[0]):
+        lstate[j] = 0.0
+    status[0] = STATUS_OK
+    status[1] = -1
+    status[2] = -1
+    same_kind = pkind == mkind
     for k in range(nt):
-        # --- measurement
-        for j in range(n):
-            if k > 0 and mhold[k, j]:
-                qm[j] = qm_prev[j]
-            else:
-                qm[j] = q[j] + madd[k, j]
-        # --- velocity estimate (state in qdm / z0, initialised at the known qd0)
-        if vcode == VEL_TRUE:
-            for j in range(n):
-                qdm[j] = qd[j]
-        elif k == 0:
-            for j in range(n):
-                qdm[j] = qd[j]
-                z0[j] = qm[j]
-        elif vcode == VEL_DIFFERENCE:
-            for j in range(n):
-                qdm[j] = (qm[j] - qm_prev[j]) / dt
-        elif vcode == VEL_FILTERED:
-            for j in range(n):
-                tf = vfb[VF_TIME_CONSTANT, j]
-                qdm[j] = (tf * qdm[j] + (qm[j] - qm_prev[j])) / (tf + dt)
-        else:
-            # first-order robust exact differentiator (Levant 1998), explicit Euler
-            for j in range(n):
-                lip = vfb[VF_LIPSCHITZ, j]
-                sigma = z0[j] - qm[j]
-                sg = 1.0 if sigma > 0.0 else (-1.0 if sigma < 0.0 else 0.0)
-                z0[j] += dt * (-vfb[VF_LAMBDA1, j] * math.sqrt(lip * abs(sigma)) * sg + qdm[j])
-                qdm[j] += dt * (-vfb[VF_LAMBDA0, j] * lip * sg)
-        # the controller leaves the cosines and sines of its q in work rows 0-1: when it
-        # measured the exact position, they are the first RK4 stage's
-        exact = True
-        for j in range(n):
-            qm_prev[j] = qm[j]
-            exact &= qm[j] == q[j]
-        # --- control
-        CK.control_into(
-            cib,
-            cfb,
-            ca,
-            cg,
-            qm,
-            qdm,
-            q_ref[k],
-            qd_ref[k],
-            qdd_ref[k],
-            st_state,
-            dt,
-            tau_b[k],
-            s_b[k],
-            mmat,
-            lw,
-            work,
-        )
-        bad = -1
-        for j in range(n):
-            t_j = tau_b[k, j]
-            if t_j > tmax[j]:
-                t_j = tmax[j]
-            elif t_j < -tmax[j]:
-                t_j = -tmax[j]
-            tau_b[k, j] = t_j
-            tau_applied[j] = t_j + db[k, j]
-            q_b[k, j] = q[j]
-            qd_b[k, j] = qd[j]
-            qm_b[k, j] = qm[j]
-            qdm_b[k, j] = qdm[j]
-            if bad < 0 and not (math.isfinite(t_j) and math.isfinite(s_b[k, j])):
-                bad = j
+        bad, exact = control_sample(
+            k, tgrid[k], dt, law_code, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode,
+            vfb, q_ref, qd_ref, qdd_ref, tmax, dist, ws, q_b, qd_b, qm_b, qdm_b, tau_b, s_b,
+        )  # fmt: skip
         if bad >= 0:
-            status[b, 0] = STATUS_NONFINITE
-            status[b, 1] = k
-            status[b, 2] = bad
+            status[0] = STATUS_NONFINITE
+            status[1] = k
+            status[2] = bad
             return
         if k == nt - 1:
             return
-        # --- plant over [t_k, t_k+1)
+        # --- plant over [t_k, t_k+1); the law left the kinematics of the measured q in work
         ok = True
         for sub in range(substeps):
-            ok &= _rk4_step(
-                pa, pg, q, qd, tau_applied, h, exact and sub == 0, kst, dq, qtmp, vtmp, base, work
-            )
-        # An overflow inside the step also fails the pivot test, so finiteness is checked first:
-        # a non-finite state is reported as such, with its joint, never as a singular M.
-        for j in range(n):
-            if not (math.isfinite(q[j]) and math.isfinite(qd[j])):
-                status[b, 0] = STATUS_NONFINITE
-                status[b, 1] = k + 1
-                status[b, 2] = j
-                return
-        if not ok:
-            status[b, 0] = STATUS_SINGULAR
-            status[b, 1] = k + 1
-            status[b, 2] = 0
+            known = exact and same_kind and sub == 0
+            ok &= MD.rk4_step(pkind, pp, pg, q, qd, tau_applied, h, known, rk, work)
+        code, j = check_state(q, qd, ok, qd_limit)
+        if code != STATUS_OK:
+            status[0] = code
+            status[1] = k + 1
+            status[2] = j
             return
-        for j in range(n):
-            if abs(qd[j]) > qd_limit:
-                status[b, 0] = STATUS_RUNAWAY
-                status[b, 1] = k + 1
-                status[b, 2] = j
-                return
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def control_step(
+    k: int,
+    t_k: float,
+    dt: float,
+    law_code: int,
+    kernel: Any,
+    lp: np.ndarray,
+    lstate: np.ndarray,
+    mkind: int,
+    mp: np.ndarray,
+    mg: float,
+    madd: np.ndarray,
+    mhold: np.ndarray,
+    vcode: int,
+    vfb: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    tmax: np.ndarray,
+    db: np.ndarray,
+    ws: np.ndarray,
+    q_b: np.ndarray,
+    qd_b: np.ndarray,
+    qm_b: np.ndarray,
+    qdm_b: np.ndarray,
+    tau_b: np.ndarray,
+    s_b: np.ndarray,
+) -> int:
+    """:func:`control_sample` for the Python-stepped loop; returns its bad joint (-1: none)."""
+    bad, _exact = control_sample(
+        k, t_k, dt, law_code, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode, vfb,
+        q_ref, qd_ref, qdd_ref, tmax, db, ws, q_b, qd_b, qm_b, qdm_b, tau_b, s_b,
+    )  # fmt: skip
+    return bad
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def state_status(q: np.ndarray, qd: np.ndarray, ok: bool, qd_limit: float) -> tuple[int, int]:
+    """:func:`check_state` for the Python-stepped loop."""
+    return check_state(q, qd, ok, qd_limit)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def model_rk4_step(
+    kind: int,
+    params: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    h: float,
+    scratch: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """One RK4 step of a compiled model from Python (the loop's own plant step)."""
+    return MD.rk4_step(kind, params, g, q, qd, tau, h, False, scratch, work)
+
+
+Q_ROW = _Q
+QD_ROW = _QD
+TAU_APPLIED_ROW = _TAU_APPLIED

@@ -42,15 +42,11 @@ SIGNALS: dict[str, tuple[str, str]] = {
 
 
 def sliding_unit(params: Mapping[str, Any]) -> str:
-    """Unit of a run's sliding variable ``s`` from its params: rad for the nonsingular terminal
-    surface (NTSMC, :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`), rad/s for the
-    others (:math:`s = \\dot e + \\dots`) and for params that do not name the controller."""
-    ctrl = params.get("controller")
-    if isinstance(ctrl, Mapping) and (
-        ctrl.get("controller") == "ntsmc" or ctrl.get("surface") == "nonsingular_terminal"
-    ):
-        return "rad"
-    return "rad/s"
+    """Unit of a run's sliding variable ``s``, as its controller recorded it
+    (:attr:`slidingarm.control.base.Controller.s_unit`, in ``params["s_unit"]``); rad/s for
+    params that do not say."""
+    unit = params.get("s_unit")
+    return unit if isinstance(unit, str) else "rad/s"
 
 
 def _units(name: str, default: str, params: Sequence[Mapping[str, Any]]) -> str:
@@ -107,6 +103,11 @@ class SimResult:
         Everything the run was made with (plant, controller, reference, options), JSON-able.
     seed : int or None
         Seed of the run's random generator (``None`` when the run used no randomness).
+    status : str
+        ``"ok"``, or how the run failed: ``"nonfinite"``, ``"runaway"``, ``"singular"``
+        (:data:`STATUS_NAMES`); the samples from the failure on are NaN.
+    message : str
+        ``""`` for a run that finished, else what happened, when and at which joint.
     """
 
     t: FloatArray
@@ -120,9 +121,16 @@ class SimResult:
     s: FloatArray
     params: dict[str, Any] = field(default_factory=dict)
     seed: int | None = None
+    status: str = "ok"
+    message: str = ""
 
     def __post_init__(self) -> None:
         _freeze_signals(self, batch=False)
+
+    @property
+    def success(self) -> bool:
+        """Whether the run finished without diverging (python-control's ``success``)."""
+        return self.status == "ok"
 
     # ------------------------------------------------------------------ derived signals
     @property
@@ -233,53 +241,254 @@ class SimResult:
             params, seed = meta["params"], meta["seed"]
             if not isinstance(params, dict) or not (seed is None or isinstance(seed, int)):
                 raise ValueError("meta must hold a params dict and an integer seed or null")
-            return cls(**arrays, params=params, seed=seed)
+            return cls(**arrays, params=params, seed=seed)  # type: ignore[arg-type]
         except (OSError, EOFError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as exc:
             raise ValueError(f"{p}: not a slidingarm result file ({exc})") from exc
 
 
+#: Status of a run by its code in the compiled loop (0 is success).
+STATUS_NAMES: tuple[str, ...] = ("ok", "nonfinite", "runaway", "singular")
+
+_STATUS_TEXT = (
+    "",
+    "a non-finite value (NaN or inf) appeared",
+    "the joint velocity ran away",
+    "the mass matrix stopped being positive definite",
+)
+
+
+def run_message(code: int, time: float, joint: int, qd_limit: float) -> str:
+    """What happened to a run with status ``code`` (``""`` for success), at ``time`` (s) and
+    ``joint`` (1-based)."""
+    if code == 0:
+        return ""
+    text = _STATUS_TEXT[code] + (f" (|qd| > {qd_limit:g} rad/s)" if code == 2 else "")
+    return f"{text} at t = {time:.6g} s, joint {joint}"
+
+
+def _none_or_frozen(x: Any) -> FloatArray | None:
+    if x is None:
+        return None
+    arr = np.asarray(x)
+    arr.setflags(write=False)
+    return arr
+
+
 @dataclass(frozen=True, eq=False)
 class BatchResult:
-    """``B`` runs on a shared time grid; signals have shape ``(B, T, n)``.
+    """``B`` runs on a shared time grid, with each run's status and, unless only metrics were
+    recorded, its signals of shape ``(B, T, n)``.
 
-    ``batch[b]`` is the :class:`SimResult` of run ``b``; ``seeds[b]`` its seed.
+    ``batch[b]`` is the :class:`SimResult` of run ``b`` (not in ``record="metrics"`` mode);
+    ``seeds[b]`` its seed; ``ok[b]``, ``status[b]``, ``message[b]`` how it ended.
+
+    Attributes
+    ----------
+    t : ndarray, shape (T,)
+        Times of the recorded samples (every ``k``-th with ``record=Every(k)``).
+    q, qd, q_ref, qd_ref, q_meas, qd_meas, tau, s : ndarray (B, T, n) or None
+        The signals (see :class:`SimResult`); ``None`` with ``record="metrics"``.
+    status_code : ndarray (B,) int
+        0 for a run that finished, else the index of its status in :data:`STATUS_NAMES`.
+    fail_time : ndarray (B,)
+        When a failed run failed (s); ``inf`` for runs that finished.
+    fail_joint : ndarray (B,) int
+        The failing joint (1-based); 0 for runs that finished.
+    messages : list of str
+        Per run: ``""``, or what happened.
+    metric_values : dict or None
+        Per metric of :data:`slidingarm.metrics.METRIC_COLUMNS`, a (B, n) array computed from
+        the full traces during the run (``record`` other than ``"full"``); NaN for failed runs.
+    t_full : ndarray (T_full,) or None
+        Every sample time of the runs (``t`` when all were recorded).
+    record : str
+        ``"full"``, ``"metrics"`` or ``"every k"``.
     """
 
     t: FloatArray
-    q: FloatArray
-    qd: FloatArray
-    q_ref: FloatArray
-    qd_ref: FloatArray
-    q_meas: FloatArray
-    qd_meas: FloatArray
-    tau: FloatArray
-    s: FloatArray
+    q: FloatArray | None = None
+    qd: FloatArray | None = None
+    q_ref: FloatArray | None = None
+    qd_ref: FloatArray | None = None
+    q_meas: FloatArray | None = None
+    qd_meas: FloatArray | None = None
+    tau: FloatArray | None = None
+    s: FloatArray | None = None
     params: list[dict[str, Any]] = field(default_factory=list)
     seeds: list[int | None] = field(default_factory=list)
+    status_code: NDArray[np.int64] | None = None
+    fail_time: FloatArray | None = None
+    fail_joint: NDArray[np.int64] | None = None
+    messages: list[str] | None = None
+    metric_values: dict[str, FloatArray] | None = None
+    t_full: FloatArray | None = None
+    record: str = "full"
 
     def __post_init__(self) -> None:
-        _freeze_signals(self, batch=True)
+        if self.q is not None or self.metric_values is None:
+            _freeze_signals(self, batch=True)
+        else:
+            t = np.asarray(self.t, dtype=np.float64)
+            t.setflags(write=False)
+            object.__setattr__(self, "t", t)
+        nb = self._size()
+        codes = np.zeros(nb, dtype=np.int64) if self.status_code is None else self.status_code
+        codes = np.asarray(codes, dtype=np.int64)
+        if codes.shape != (nb,) or np.any((codes < 0) | (codes >= len(STATUS_NAMES))):
+            raise ValueError(f"status_code must hold {nb} codes in 0..{len(STATUS_NAMES) - 1}")
+        object.__setattr__(self, "status_code", _none_or_frozen(codes))
+        ft = np.full(nb, np.inf) if self.fail_time is None else self.fail_time
+        fj = np.zeros(nb, dtype=np.int64) if self.fail_joint is None else self.fail_joint
+        object.__setattr__(self, "fail_time", _none_or_frozen(np.asarray(ft, dtype=np.float64)))
+        object.__setattr__(self, "fail_joint", _none_or_frozen(np.asarray(fj, dtype=np.int64)))
+        if self.messages is None:
+            object.__setattr__(self, "messages", [""] * nb)
+        if self.metric_values is not None:
+            frozen = {k: _none_or_frozen(np.asarray(v, dtype=np.float64)) for k, v in self.metric_values.items()}
+            object.__setattr__(self, "metric_values", frozen)
+        if self.t_full is None:
+            object.__setattr__(self, "t_full", self.t)
+
+    def _size(self) -> int:
+        if self.q is not None:
+            return int(np.shape(self.q)[0])
+        if self.metric_values:
+            return int(next(iter(self.metric_values.values())).shape[0])
+        return len(self.params)
 
     def __len__(self) -> int:
-        return int(self.q.shape[0])
+        return self._size()
+
+    def __repr__(self) -> str:
+        nb = len(self)
+        failed = int(np.count_nonzero(~self.ok))
+        return (
+            f"BatchResult({nb} runs, record={self.record!r}, {nb - failed} ok, {failed} failed, "
+            f"{self.t.shape[0]} samples)"
+        )
+
+    # ------------------------------------------------------------------ status
+    @property
+    def ok(self) -> NDArray[np.bool_]:
+        """Per run: whether it finished without diverging, shape (B,)."""
+        assert self.status_code is not None
+        return np.asarray(self.status_code == 0)
+
+    @property
+    def status(self) -> list[str]:
+        """Per run: ``"ok"`` or how it failed (:data:`STATUS_NAMES`)."""
+        assert self.status_code is not None
+        return [STATUS_NAMES[int(c)] for c in self.status_code]
+
+    @property
+    def message(self) -> list[str]:
+        """Per run: ``""`` or what happened, when and at which joint."""
+        return list(self.messages or [])
+
+    # ------------------------------------------------------------------ signals
+    def _traces(self) -> None:
+        if self.q is None:
+            raise ValueError(
+                "this batch was run with record='metrics' and holds no signals; run it with "
+                "record='full' or record=Every(k) to keep them"
+            )
 
     @property
     def e(self) -> FloatArray:
         """Tracking errors, shape (B, T, n)."""
+        self._traces()
+        assert self.q is not None and self.q_ref is not None
         return self.q - self.q_ref
 
     def __getitem__(self, b: int) -> SimResult:
+        self._traces()
+        assert self.status_code is not None and self.messages is not None
         return SimResult(
             t=self.t,
             **{name: getattr(self, name)[b] for name in SIGNALS},
             params=self.params[b] if self.params else {},
             seed=self.seeds[b] if self.seeds else None,
+            status=STATUS_NAMES[int(self.status_code[b])],
+            message=self.messages[b],
         )
+
+    # ------------------------------------------------------------------ metrics
+    def metrics(self) -> pd.DataFrame:
+        """Per run and joint, the metrics of :func:`slidingarm.metrics.summary` (defaults):
+        columns ``run``, ``joint`` (``"1"`` … ``"n"``, ``"mean"``), then
+        :data:`slidingarm.metrics.METRIC_COLUMNS`; the rows of failed runs are NaN.
+
+        With ``record="full"`` computed from the kept signals; otherwise the values computed
+        from the full traces while the batch ran.
+        """
+        import pandas as pd
+
+        from slidingarm.metrics import METRIC_COLUMNS, summary
+
+        if self.metric_values is None:
+            self._traces()
+            table = summary(self)
+            bad = np.repeat(~self.ok, table.shape[0] // max(len(self), 1))
+            if bad.any():
+                table.loc[bad, list(METRIC_COLUMNS)] = np.nan
+            return table
+        values = self.metric_values
+        nb, n = next(iter(values.values())).shape
+        columns: dict[str, Any] = {
+            "run": np.repeat(np.arange(nb), n + 1),
+            "joint": ([str(j + 1) for j in range(n)] + ["mean"]) * nb,
+        }
+        for name in METRIC_COLUMNS:
+            v = values[name]
+            with_mean = np.concatenate([v, np.mean(v, axis=-1, keepdims=True)], axis=-1)
+            columns[name] = with_mean.reshape(-1)
+        return pd.DataFrame(columns)
+
+    # ------------------------------------------------------------------ export
+    def runs(self) -> pd.DataFrame:
+        """One row per run: ``run``, ``seed``, ``ok``, ``status``, ``message``, ``fail_time``
+        (s; inf for a run that finished), ``fail_joint`` (0 for none)."""
+        import pandas as pd
+
+        return pd.DataFrame(
+            {
+                "run": np.arange(len(self)),
+                "seed": [(-1 if s is None else s) for s in self.seeds] or [-1] * len(self),
+                "ok": self.ok,
+                "status": self.status,
+                "message": self.message,
+                "fail_time": self.fail_time,
+                "fail_joint": self.fail_joint,
+            }
+        )
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """Long format. With signals: one row per run, recorded sample and joint (columns
+        ``run``, ``t``, ``joint``, then one column per signal: ``q``, ``qd``, ``q_ref``,
+        ``qd_ref``, ``q_meas``, ``qd_meas``, ``tau``, ``s``). With ``record="metrics"``: one
+        row per run and joint of :meth:`metrics`. Both carry each run's ``seed``, ``ok`` and
+        ``status``."""
+        import pandas as pd
+
+        runs = self.runs()[["run", "seed", "ok", "status"]]
+        if self.q is None:
+            return self.metrics().merge(runs, on="run", how="left")
+        nb, nt, n = self.q.shape
+        data: dict[str, Any] = {
+            "run": np.repeat(np.arange(nb), nt * n),
+            "t": np.tile(np.repeat(self.t, n), nb),
+            "joint": np.tile(np.arange(1, n + 1), nb * nt),
+        }
+        for name in SIGNALS:
+            data[name] = np.asarray(getattr(self, name)).reshape(-1)
+        return pd.DataFrame(data).merge(runs, on="run", how="left")
 
     def to_xarray(self) -> xr.Dataset:
         """An ``xarray.Dataset`` with dims ``(run, time, joint)``."""
         import xarray as xr
 
+        self._traces()
+        assert self.q is not None
         joints = np.arange(1, self.q.shape[2] + 1)
         data_vars = {
             name: (
@@ -296,5 +505,6 @@ class BatchResult:
                 "time": ("time", self.t, {"units": "s"}),
                 "joint": joints,
                 "seed": ("run", [(-1 if s is None else s) for s in self.seeds] or [-1] * len(self)),
+                "status": ("run", self.status),
             },
         )

@@ -2,23 +2,35 @@
 
 The controller runs at :math:`t_k = k\\,\\Delta t` on the measurement; its torque is held over
 :math:`[t_k, t_{k+1})` (zero-order hold) while the plant is integrated by RK4 (``substeps``
-equal steps per interval). The run is deterministic for a given seed. The loop itself is the
-compiled :func:`slidingarm._engine.run_batch`; this module validates, prepares arrays and wraps
-the output in typed results.
+equal steps per interval). A run is deterministic for a given seed. The loop is
+:mod:`slidingarm._engine`, written once over the plant's and the law's handles; this module
+validates, prepares the per-run inputs, runs the batch in chunks of runs over threads, and
+wraps the output in typed results.
+
+Randomness: run ``b`` has the seed ``seeds[b]`` and the root
+``numpy.random.SeedSequence(seeds[b])``. The sensor draws from the root's own stream (so a
+recorded seed reproduces the runs of earlier versions); torque disturbance ``i`` draws from
+the child ``SeedSequence(seeds[b], spawn_key=(i,))``. Adding a random disturbance therefore
+changes no other component's numbers.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
+from numba import config
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm import _engine as E
+from slidingarm._validate import has_bool
 from slidingarm._version import __version__
-from slidingarm.control.controllers import SlidingModeController
+from slidingarm.control.base import Controller
 from slidingarm.disturbances import (
     ConstantTorque,
     Disturbance,
@@ -26,25 +38,35 @@ from slidingarm.disturbances import (
     SinusoidalTorque,
     disturbance_torque,
 )
-from slidingarm.models.planar import PlanarArm
-from slidingarm.results import BatchResult, SimResult
+from slidingarm.models.base import ArmModel
+from slidingarm.models.stepped import SteppedPlant
+from slidingarm.results import BatchResult, SimResult, run_message
 from slidingarm.sensors import Sensor
 
 if TYPE_CHECKING:
     from slidingarm.references import Reference
 
-__all__ = ["DEFAULT_QD_LIMIT", "SimulationError", "simulate", "simulate_batch", "time_grid"]
+__all__ = [
+    "DEFAULT_QD_LIMIT",
+    "Every",
+    "SimulationError",
+    "simulate",
+    "simulate_batch",
+    "time_grid",
+]
 
 FloatArray = NDArray[np.float64]
 
 #: A run whose joint speed exceeds this (rad/s) is declared diverged.
 DEFAULT_QD_LIMIT = 1e4
 
-_STATUS_TEXT = {
-    E.STATUS_NONFINITE: "a non-finite value (NaN or inf) appeared",
-    E.STATUS_RUNAWAY: "the joint velocity ran away",
-    E.STATUS_SINGULAR: "the mass matrix stopped being positive definite",
-}
+#: Runs per chunk: the unit of work of a thread, and of the bounded working set of
+#: ``record="metrics"`` (a chunk's full traces live only while its metrics are computed).
+CHUNK_RUNS = 16
+
+#: A batch whose kept arrays would exceed this share of the machine's memory is refused
+#: before anything is allocated.
+MEMORY_SHARE = 0.8
 
 
 class SimulationError(RuntimeError):
@@ -57,17 +79,38 @@ class SimulationError(RuntimeError):
         self.run = run
 
 
+@dataclass(frozen=True)
+class Every:
+    """Record policy: keep every ``k``-th sample (``t_0, t_k, t_2k, …``) of every signal.
+
+    The metrics of such a batch are still those of the full traces.
+    """
+
+    k: int
+
+    def __post_init__(self) -> None:
+        if isinstance(self.k, bool) or not isinstance(self.k, int | np.integer):
+            raise TypeError(f"Every(k): k must be an integer >= 1, got {self.k!r}")
+        if self.k < 1:
+            raise ValueError(f"Every(k): k must be an integer >= 1, got {self.k!r}")
+
+
+Record = Literal["full", "metrics"] | Every
+
+
 def time_grid(t_final: float, dt: float) -> FloatArray:
     """Sample times :math:`t_k = k\\,\\Delta t`, ``k = 0..N`` with :math:`N = t_f/\\Delta t`.
 
     The paper's run (4.5 s at 5e-4 s) has 9000 control intervals, hence 9001 samples including
     both ends. ``t_final`` must be a whole number of steps.
     """
-    try:
-        tf = float(t_final)
-        h = float(dt)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"t_final and dt must be numbers, got {t_final!r}, {dt!r}") from exc
+    for name, v in (("t_final", t_final), ("dt", dt)):
+        if isinstance(v, str | bytes | bool | np.bool_) or not isinstance(
+            v, int | float | np.integer | np.floating
+        ):
+            raise TypeError(f"{name} must be a number (s), got {type(v).__name__} {v!r}")
+    tf = float(t_final)
+    h = float(dt)
     if not (math.isfinite(h) and h > 0):
         raise ValueError(f"dt must be a finite sample time > 0 s, got {dt!r}")
     if not (math.isfinite(tf) and tf > 0):
@@ -78,11 +121,17 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
     return np.arange(steps + 1, dtype=np.float64) * h
 
 
-def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
+def _numbers(name: str, value: Any) -> FloatArray:
+    if isinstance(value, str | bytes | set | frozenset | dict) or has_bool(value):
+        raise TypeError(f"{name} must be numbers, got {type(value).__name__} {value!r}")
     try:
-        arr = np.asarray(value, dtype=np.float64)
+        return np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numbers, got {value!r}") from exc
+        raise TypeError(f"{name} must be numbers, got {value!r}") from exc
+
+
+def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
+    arr = _numbers(name, value)
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != n:
@@ -92,21 +141,228 @@ def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
     return np.ascontiguousarray(arr)
 
 
-def _listify(name: str, value: Any, cls: type) -> list[Any]:
+def _listify(name: str, value: Any, cls: type | tuple[type, ...], what: str) -> list[Any]:
     items = list(value) if isinstance(value, Sequence) and not isinstance(value, str) else [value]
     for item in items:
         if not isinstance(item, cls):
-            raise ValueError(
-                f"{name} must be a {cls.__name__} (or a sequence of them), got {type(item).__name__}"
-            )
+            raise TypeError(f"{name} must be {what} (or a sequence of them), got {type(item).__name__}")
     if not items:
         raise ValueError(f"{name} must not be empty")
     return items
 
 
+_DISTURBANCES = (ConstantTorque, SinusoidalTorque, RandomTorque)
+
+
+def _disturbance_lists(disturbances: Any) -> list[tuple[Disturbance, ...]]:
+    """One tuple of disturbances shared by all runs, or one tuple per run."""
+
+    def check(d: Any) -> Disturbance:
+        if not isinstance(d, _DISTURBANCES):
+            raise TypeError(
+                "disturbances must be torque disturbances (ConstantTorque, SinusoidalTorque, "
+                f"RandomTorque), got {type(d).__name__}; a model mismatch belongs in the plant: "
+                "ModelMismatch(...).apply(arm)"
+            )
+        return d
+
+    if isinstance(disturbances, _DISTURBANCES):
+        return [(disturbances,)]
+    if isinstance(disturbances, str) or not isinstance(disturbances, Sequence):
+        check(disturbances)
+    items = list(disturbances)
+    if items and all(isinstance(d, Sequence) and not isinstance(d, str) for d in items):
+        return [tuple(check(d) for d in run) for run in items]
+    return [tuple(check(d) for d in items)]
+
+
+def _torque_limits(torque_limit: Any, n: int) -> list[FloatArray | None]:
+    """Per-run limits (n,) or None: one value for all, or one per run ((B, n) or a list)."""
+
+    def one(v: Any) -> FloatArray | None:
+        if v is None:
+            return None
+        tl = _numbers("torque_limit", v)
+        if tl.ndim > 1 or (tl.ndim == 1 and tl.shape[0] != n) or np.any(~(tl > 0)):
+            raise ValueError(
+                f"torque_limit must be > 0 N m, a scalar or one per joint ({n}), got {v!r}"
+            )
+        return np.ascontiguousarray(np.broadcast_to(tl, (n,)), dtype=np.float64).copy()
+
+    if torque_limit is None:
+        return [None]
+    if isinstance(torque_limit, list | tuple) and any(
+        v is None or isinstance(v, list | tuple | np.ndarray) for v in torque_limit
+    ):
+        return [one(v) for v in torque_limit]
+    arr = torque_limit if isinstance(torque_limit, np.ndarray) else None
+    if arr is not None and arr.ndim == 2:
+        return [one(row) for row in arr]
+    return [one(torque_limit)]
+
+
+def _seed_list(seeds: Any) -> list[int]:
+    if isinstance(seeds, bool | np.bool_) or isinstance(seeds, str | bytes | set | frozenset):
+        raise TypeError(f"seeds must be an integer or a sequence of integers, got {seeds!r}")
+    raw = [seeds] if isinstance(seeds, int | np.integer) else list(seeds)
+    out = []
+    for s in raw:
+        if isinstance(s, bool | np.bool_) or not isinstance(s, int | np.integer):
+            raise TypeError(f"seeds must be integers, got {s!r}")
+        if s < 0:
+            raise ValueError(f"seeds must be integers >= 0 (numpy SeedSequence entropy), got {s}")
+        out.append(int(s))
+    if not out:
+        raise ValueError("seeds must not be empty")
+    return out
+
+
+def _pick(items: list[Any], b: int) -> Any:
+    return items[b if len(items) > 1 else 0]
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """Everything a chunk of runs needs, validated."""
+
+    plants: list[ArmModel | SteppedPlant]
+    ctrls: list[Controller]
+    sensors: list[Sensor]
+    dists: list[tuple[Disturbance, ...]]
+    limits: list[FloatArray | None]
+    seeds: list[int]
+    q0: FloatArray
+    qd0: FloatArray
+    t: FloatArray
+    refs: tuple[FloatArray, FloatArray, FloatArray]
+    dt: float
+    substeps: int
+    qd_limit: float
+    n: int
+    nb: int
+
+
+def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[np.int64]) -> None:
+    """Simulate ``runs`` of ``plan`` into ``out`` (six (len(runs), T, n) arrays) and
+    ``status`` (len(runs), 3)."""
+    n, t = plan.n, plan.t
+    nt = t.shape[0]
+    qr, qdr, qddr = plan.refs
+    workspace = np.empty((E.workspace_rows(n), n))
+    for i, b in enumerate(runs):
+        plant = _pick(plan.plants, b)
+        ctrl = _pick(plan.ctrls, b)
+        sens = _pick(plan.sensors, b)
+        dists = _pick(plan.dists, b)
+        limit = _pick(plan.limits, b)
+        seed = plan.seeds[b]
+        root = np.random.SeedSequence(seed)
+        madd, mhold = sens.arrays(t, n, np.random.Generator(np.random.PCG64(root)))
+        dist = np.zeros((nt, n))
+        for j, d in enumerate(dists):
+            child = np.random.SeedSequence(seed, spawn_key=(j,))
+            dist += disturbance_torque((d,), t, n, np.random.Generator(np.random.PCG64(child)))
+        vcode, vf = sens.velocity.params(n)
+        vf = np.ascontiguousarray(vf)
+        tmax = np.full(n, np.inf) if limit is None else limit
+        law = ctrl.handle
+        model = ctrl.model.handle
+        # writable copies: the kernels' argument types (a custom kernel may not write them)
+        lp = np.array(law.params)
+        mp = np.array(model.params)
+        lstate = np.zeros(law.state_size)
+        q0 = plan.q0[b if plan.q0.shape[0] > 1 else 0]
+        qd0 = plan.qd0[b if plan.qd0.shape[0] > 1 else 0]
+        outs = [o[i] for o in out]
+        if isinstance(plant, SteppedPlant):
+            _run_stepped(
+                plant, law, lp, model, mp, lstate, q0, qd0, t, qr, qdr, qddr, madd, mhold, int(vcode),
+                vf, dist, tmax, plan.dt, plan.substeps, plan.qd_limit, outs, status[i], workspace,
+            )  # fmt: skip
+            continue
+        ph = plant.handle
+        E.run_one(
+            ph.kind, np.array(ph.params), ph.g, law.code, law.kernel, lp, lstate, model.kind,
+            mp, model.g, q0, qd0, t, qr, qdr, qddr, madd, mhold, int(vcode), vf, dist,
+            tmax, plan.dt, plan.substeps, plan.qd_limit, *outs, status[i], workspace,
+        )  # fmt: skip
+
+
+def _run_stepped(
+    plant: SteppedPlant,
+    law: Any,
+    lp: FloatArray,
+    model: Any,
+    mp: FloatArray,
+    lstate: FloatArray,
+    q0: FloatArray,
+    qd0: FloatArray,
+    t: FloatArray,
+    qr: FloatArray,
+    qdr: FloatArray,
+    qddr: FloatArray,
+    madd: FloatArray,
+    mhold: NDArray[np.bool_],
+    vcode: int,
+    vf: FloatArray,
+    dist: FloatArray,
+    tmax: FloatArray,
+    dt: float,
+    substeps: int,
+    qd_limit: float,
+    outs: list[FloatArray],
+    status: NDArray[np.int64],
+    ws: FloatArray,
+) -> None:
+    """:func:`slidingarm._engine.run_one`'s loop with the plant stepped from Python: the same
+    compiled step pieces before and after the plant's ``step``."""
+    nt = t.shape[0]
+    h = dt / substeps
+    q = ws[E.Q_ROW]
+    qd = ws[E.QD_ROW]
+    tau_applied = ws[E.TAU_APPLIED_ROW]
+    q[:] = q0
+    qd[:] = qd0
+    lstate[:] = 0.0
+    status[:] = (E.STATUS_OK, -1, -1)
+    for k in range(nt):
+        bad = E.control_step(
+            k, t[k], dt, law.code, law.kernel, lp, lstate, model.kind, mp, model.g, madd, mhold, vcode, vf, qr, qdr, qddr, tmax, dist, ws, *outs,
+        )  # fmt: skip
+        if bad >= 0:
+            status[:] = (E.STATUS_NONFINITE, k, bad)
+            return
+        if k == nt - 1:
+            return
+        ok = True
+        for _ in range(substeps):
+            ok &= plant.step(q, qd, tau_applied, h) is not False
+        code, j = E.state_status(q, qd, ok, qd_limit)
+        if code != E.STATUS_OK:
+            status[:] = (code, k + 1, j)
+            return
+
+
+def _threads(nb: int, stepped: bool) -> int:
+    return 1 if stepped else max(1, min(int(config.NUMBA_NUM_THREADS), math.ceil(nb / CHUNK_RUNS)))
+
+
+def _check_memory(nbytes: int) -> None:
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return
+    if nbytes > MEMORY_SHARE * total:
+        raise MemoryError(
+            f"this batch would keep {nbytes / 2**30:.1f} GiB of traces, more than "
+            f"{MEMORY_SHARE:.0%} of this machine's {total / 2**30:.1f} GiB: use "
+            "record='metrics' (per-run metrics only) or record=Every(k), or fewer runs"
+        )
+
+
 def simulate_batch(
-    plant: PlanarArm | Sequence[PlanarArm],
-    controller: SlidingModeController | Sequence[SlidingModeController],
+    plant: ArmModel | SteppedPlant | Sequence[ArmModel | SteppedPlant],
+    controller: Controller | Sequence[Controller],
     reference: Reference,
     *,
     q0: ArrayLike,
@@ -114,25 +370,47 @@ def simulate_batch(
     t_final: float,
     dt: float,
     substeps: int = 1,
-    sensor: Sensor | None = None,
-    disturbances: Sequence[Disturbance] = (),
-    torque_limit: ArrayLike | None = None,
+    sensor: Sensor | Sequence[Sensor] | None = None,
+    disturbances: Sequence[Disturbance] | Sequence[Sequence[Disturbance]] = (),
+    torque_limit: ArrayLike | Sequence[ArrayLike | None] | None = None,
     seeds: int | Sequence[int] = 0,
     qd_limit: float = DEFAULT_QD_LIMIT,
+    record: Record = "full",
+    throw: bool = True,
 ) -> BatchResult:
-    """Simulate ``B`` closed-loop runs on one time grid; signals have shape ``(B, T, n)``.
+    """Simulate ``B`` closed-loop runs on one time grid.
 
-    Any of ``plant``, ``controller``, ``q0`` (``(B, n)``), ``qd0`` and ``seeds`` may vary per
-    run; each is either one value shared by all runs or ``B`` values. Runs with different
-    seeds draw different noise. Parameters are otherwise those of :func:`simulate`.
+    Any of ``plant``, ``controller``, ``q0`` (``(B, n)``), ``qd0``, ``sensor``,
+    ``disturbances`` (a sequence of per-run sequences), ``torque_limit`` (``(B, n)`` or a list
+    with one entry per run, ``None`` for none) and ``seeds`` may vary per run; each is either
+    one value shared by all runs or ``B`` values. Parameters are otherwise those of
+    :func:`simulate`.
+
+    Parameters
+    ----------
+    record : {"full", "metrics"} or Every
+        ``"full"``: every sample of every signal, ``(B, T, n)``; ``Every(k)``: every ``k``-th
+        sample; ``"metrics"``: no traces, only each run's metrics (those of
+        :func:`slidingarm.metrics.summary` on its full traces), computed chunk by chunk so
+        that memory stays O(B n) beyond a bounded working set.
+    throw : bool
+        ``True``: raise :class:`SimulationError` for the first diverging run. ``False``:
+        record each run's status (``BatchResult.ok``, ``.status``, ``.message``) and let the
+        others finish; a failed run's samples after the failure and its metrics are NaN.
 
     Raises
     ------
     SimulationError
-        If any run diverges; the message names the run, time and joint.
+        With ``throw=True``, if any run diverges; the message names the run, time and joint.
+    MemoryError
+        If the traces to keep cannot fit in this machine's memory (before allocating).
     """
-    plants = _listify("plant", plant, PlanarArm)
-    ctrls = _listify("controller", controller, SlidingModeController)
+    if record not in ("full", "metrics") and not isinstance(record, Every):
+        raise ValueError(f"record must be 'full', 'metrics' or Every(k), got {record!r}")
+    if not isinstance(throw, bool):
+        raise TypeError(f"throw must be True or False, got {throw!r}")
+    plants = _listify("plant", plant, (ArmModel, SteppedPlant), "an arm model or a SteppedPlant")
+    ctrls = _listify("controller", controller, Controller, "a Controller")
     n = plants[0].n
     for p in plants:
         if p.n != n:
@@ -143,33 +421,33 @@ def simulate_batch(
     ref_n = getattr(reference, "n", None)
     if ref_n != n or not hasattr(reference, "evaluate"):
         raise ValueError(f"reference must be a Reference with n = {n} joints, got {reference!r}")
-    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer) or substeps < 1:
+    if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer):
+        raise TypeError(f"substeps must be an integer >= 1, got {substeps!r}")
+    if substeps < 1:
         raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
+    if isinstance(qd_limit, str | bytes | bool | np.bool_):
+        raise TypeError(f"qd_limit must be a number (rad/s), got {qd_limit!r}")
     if not (math.isfinite(qd_limit) and qd_limit > 0):
         raise ValueError(f"qd_limit must be a finite speed > 0 rad/s, got {qd_limit!r}")
-    sens = Sensor() if sensor is None else sensor
-    if not isinstance(sens, Sensor):
-        raise ValueError(f"sensor must be a Sensor, got {type(sensor).__name__}")
-    kinds = (ConstantTorque, SinusoidalTorque, RandomTorque)
-    dists = (disturbances,) if isinstance(disturbances, kinds) else tuple(disturbances)
-    for d in dists:
-        if not isinstance(d, kinds):
-            raise ValueError(
-                "disturbances must be torque disturbances (ConstantTorque, SinusoidalTorque, "
-                f"RandomTorque), got {type(d).__name__}; a model mismatch belongs in the plant: "
-                "ModelMismatch(...).apply(arm)"
-            )
-
+    sensors = [Sensor()] if sensor is None else _listify("sensor", sensor, Sensor, "a Sensor")
+    dists = _disturbance_lists(disturbances)
+    limits = _torque_limits(torque_limit, n)
     q0a = _vectors("q0", q0, n)
     qd0a = _vectors("qd0", np.zeros(n) if qd0 is None else qd0, n)
-    seed_list = [int(seeds)] if isinstance(seeds, int | np.integer) else [int(s) for s in seeds]
-    if not seed_list:
-        raise ValueError("seeds must not be empty")
-    sizes = {len(plants), len(ctrls), q0a.shape[0], qd0a.shape[0], len(seed_list)} - {1}
+    seed_list = _seed_list(seeds)
+    counts = {
+        "plants": len(plants), "controllers": len(ctrls), "q0": q0a.shape[0],
+        "qd0": qd0a.shape[0], "sensors": len(sensors), "disturbances": len(dists),
+        "torque_limit": len(limits), "seeds": len(seed_list),
+    }  # fmt: skip
+    sizes = set(counts.values()) - {1}
     if len(sizes) > 1:
+        base = ("plants", "controllers", "q0", "qd0")
+        shown = [k for k in counts if k != "seeds" and (k in base or counts[k] != 1)]
         raise ValueError(
-            f"batch sizes differ: plants {len(plants)}, controllers {len(ctrls)}, q0 {q0a.shape[0]}, "
-            f"qd0 {qd0a.shape[0]}, seeds {len(seed_list)} (each must be 1 or B)"
+            "batch sizes differ: "
+            + ", ".join(f"{k} {counts[k]}" for k in [*shown, "seeds"])
+            + " (each must be 1 or B)"
         )
     nb = sizes.pop() if sizes else 1
 
@@ -181,122 +459,157 @@ def simulate_batch(
             raise ValueError(
                 f"reference {name} must be finite with shape ({nt}, {n}), got {a.shape}"
             )
-
-    if torque_limit is None:
-        tmax = np.full((1, n), np.inf)
-    else:
-        tl = np.asarray(torque_limit, dtype=np.float64)
-        if tl.ndim > 1 or (tl.ndim == 1 and tl.shape[0] != n) or np.any(~(tl > 0)):
-            raise ValueError(
-                f"torque_limit must be > 0 N m, a scalar or one per joint ({n}), got {torque_limit!r}"
-            )
-        tmax = np.ascontiguousarray(np.broadcast_to(tl, (n,)))[None, :].copy()
-
-    # random inputs, drawn per run from its own generator in a fixed order
-    random = sens.random or any(isinstance(d, RandomTorque) for d in dists)
-    run_seeds = seed_list if len(seed_list) == nb else seed_list * nb
-    n_rand = nb if random else 1
-    meas_add = np.empty((n_rand, nt, n))
-    meas_hold = np.empty((n_rand, nt, n), dtype=np.bool_)
-    dist = np.empty((n_rand, nt, n))
-    for b in range(n_rand):
-        rng = np.random.default_rng(run_seeds[b])
-        meas_add[b], meas_hold[b] = sens.arrays(t, n, rng)
-        dist[b] = disturbance_torque(dists, t, n, rng)
-    vcode, vf = sens.velocity.params(n)
-
-    def stack(items: list[Any], fn: Any) -> Any:
-        return np.ascontiguousarray(np.stack([fn(x) for x in items]))
-
-    plant_arm = stack(plants, lambda p: p.packed)
-    plant_g = np.array([p.gravity for p in plants])
-    compiled = [c.compiled() for c in ctrls]
-    ci = np.ascontiguousarray(np.stack([c[0] for c in compiled]))
-    cf = np.ascontiguousarray(np.stack([c[1] for c in compiled]))
-    ctrl_arm = np.ascontiguousarray(np.stack([c[2] for c in compiled]))
-    ctrl_g = np.array([c[3] for c in compiled])
+    stride = 1 if record == "full" else (record.k if isinstance(record, Every) else 0)
+    kept = 0 if stride == 0 else len(range(0, nt, stride))
+    _check_memory(6 * nb * kept * n * 8)
     for c in ctrls:
         c.reset()
+    plan = _Plan(
+        plants, ctrls, sensors, dists, limits,
+        seed_list if len(seed_list) == nb else seed_list * nb,
+        q0a, qd0a, t, (qr, qdr, qddr), float(dt), int(substeps), float(qd_limit), n, nb,
+    )  # fmt: skip
 
-    out = [np.empty((nb, nt, n)) for _ in range(6)]
+    keep = [np.empty((nb, kept, n)) for _ in range(6)] if kept else None
+    metrics: dict[str, FloatArray] | None = None if record == "full" else {}
     status = np.zeros((nb, 3), dtype=np.int64)
-    E.run_batch(
-        plant_arm,
-        plant_g,
-        ci,
-        cf,
-        ctrl_arm,
-        ctrl_g,
-        q0a,
-        qd0a,
-        qr,
-        qdr,
-        qddr,
-        meas_add,
-        meas_hold,
-        np.array([vcode], dtype=np.int64),
-        vf[None, :, :].copy(),
-        dist,
-        tmax,
-        float(dt),
-        int(substeps),
-        float(qd_limit),
-        *out,
-        status,
-    )
+    chunks = [range(lo, min(lo + CHUNK_RUNS, nb)) for lo in range(0, nb, CHUNK_RUNS)]
+
+    def work(runs: range) -> dict[str, FloatArray] | None:
+        sl = slice(runs.start, runs.stop)
+        if record == "full":
+            assert keep is not None
+            _run_chunk(plan, runs, [k[sl] for k in keep], status[sl])
+            _blank_failures([k[sl] for k in keep], status[sl])
+            return None
+        full = [np.empty((len(runs), nt, n)) for _ in range(6)]
+        _run_chunk(plan, runs, full, status[sl])
+        _blank_failures(full, status[sl])
+        if keep is not None:
+            for k, f in zip(keep, full, strict=True):
+                k[sl] = f[:, ::stride]
+        return _metric_arrays(t, full, qr, status[sl])
+
+    stepped = any(isinstance(p, SteppedPlant) for p in plants)
+    nthreads = _threads(nb, stepped)
+    if nthreads <= 1:
+        parts = [work(r) for r in chunks]
+    else:
+        with ThreadPoolExecutor(nthreads) as pool:
+            parts = list(pool.map(work, chunks))
+    if metrics is not None:
+        for name in parts[0] or {}:
+            metrics[name] = np.concatenate([p[name] for p in parts if p is not None])
+
+    run_seeds = plan.seeds
+    messages = [
+        run_message(int(c), float(t[k]) if k >= 0 else math.inf, int(j) + 1, qd_limit)
+        for c, k, j in status
+    ]
     bad = np.flatnonzero(status[:, 0] != E.STATUS_OK)
-    if bad.size:
+    if throw and bad.size:
         b = int(bad[0])
-        code, k, j = (int(v) for v in status[b])
+        _code, k, j = (int(v) for v in status[b])
         when = float(t[k])
         run = f" (run {b} of {nb})" if nb > 1 else ""
         raise SimulationError(
-            f"simulation diverged at t = {when:.6g} s, joint {j + 1}{run}: {_STATUS_TEXT[code]}"
-            + (f" (|qd| > {qd_limit:g} rad/s)" if code == E.STATUS_RUNAWAY else "")
-            + "; check the gains, the sample time and the torque limits",
+            f"simulation diverged at t = {when:.6g} s, joint {j + 1}{run}: {messages[b]}"
+            "; check the gains, the sample time and the torque limits",
             time=when,
             joint=j + 1,
             run=b,
         )
 
-    params = []
-    for b in range(nb):
-        params.append(
-            {
-                "version": __version__,
-                "plant": plants[b if len(plants) > 1 else 0].to_dict(),
-                "controller": ctrls[b if len(ctrls) > 1 else 0].to_dict(),
-                "reference": reference.to_dict(),
-                "q0": q0a[b if q0a.shape[0] > 1 else 0].tolist(),
-                "qd0": qd0a[b if qd0a.shape[0] > 1 else 0].tolist(),
-                "t_final": float(t[-1]),
-                "dt": float(dt),
-                "substeps": int(substeps),
-                "sensor": sens.to_dict(),
-                "disturbances": [d.to_dict() for d in dists],
-                "torque_limit": None if torque_limit is None else tmax[0].tolist(),
-                "seed": run_seeds[b],
-            }
-        )
-    shape = (nb, nt, n)
+    params = [
+        {
+            "version": __version__,
+            "plant": _pick(plants, b).to_dict(),
+            "controller": _pick(ctrls, b).to_dict(),
+            "label": _pick(ctrls, b).label,
+            "s_unit": _pick(ctrls, b).s_unit,
+            "reference": reference.to_dict(),
+            "q0": q0a[b if q0a.shape[0] > 1 else 0].tolist(),
+            "qd0": qd0a[b if qd0a.shape[0] > 1 else 0].tolist(),
+            "t_final": float(t[-1]),
+            "dt": float(dt),
+            "substeps": int(substeps),
+            "sensor": _pick(sensors, b).to_dict(),
+            "disturbances": [d.to_dict() for d in _pick(dists, b)],
+            "torque_limit": None if _pick(limits, b) is None else _pick(limits, b).tolist(),
+            "seed": run_seeds[b],
+        }
+        for b in range(nb)
+    ]
+    tk = t if stride in (0, 1) else t[::stride]
+    signals: dict[str, Any] = {}
+    if keep is not None:
+        shape = (nb, kept, n)
+        signals = dict(
+            q=keep[0], qd=keep[1], q_meas=keep[2], qd_meas=keep[3], tau=keep[4], s=keep[5],
+            q_ref=np.broadcast_to(qr[::stride], shape), qd_ref=np.broadcast_to(qdr[::stride], shape),
+        )  # fmt: skip
     return BatchResult(
-        t=t,
-        q=out[0],
-        qd=out[1],
-        q_ref=np.broadcast_to(qr, shape),
-        qd_ref=np.broadcast_to(qdr, shape),
-        q_meas=out[2],
-        qd_meas=out[3],
-        tau=out[4],
-        s=out[5],
+        t=tk,
+        **signals,
         params=params,
         seeds=[int(s) for s in run_seeds],
+        status_code=status[:, 0].copy(),
+        fail_time=np.array([float(t[k]) if k >= 0 else math.inf for _, k, _ in status]),
+        fail_joint=np.array([int(j) + 1 for _, _, j in status]),
+        messages=messages,
+        metric_values=metrics,
+        t_full=t,
+        record="full" if record == "full" else ("metrics" if stride == 0 else f"every {stride}"),
     )
 
 
+def _blank_failures(outs: list[FloatArray], status: NDArray[np.int64]) -> None:
+    """NaN from each failed run's failing sample on, so that no sample of a failed run looks
+    valid past the failure (the outputs after it were never written)."""
+    for i in np.flatnonzero(status[:, 0] != E.STATUS_OK):
+        first = int(status[i, 1])
+        for o in outs:
+            o[i, first:] = np.nan
+
+
+def _metric_arrays(
+    t: FloatArray,
+    full: list[FloatArray],
+    qr: FloatArray,
+    status: NDArray[np.int64],
+) -> dict[str, FloatArray]:
+    """Per-run, per-joint metrics (runs, n) of a chunk's full traces; NaN for failed runs."""
+    from slidingarm.metrics import (
+        DEFAULT_CUTOFF_HZ,
+        DEFAULT_DELTA_E,
+        DEFAULT_DELTA_S,
+        DEFAULT_WINDOW,
+        _metric_table,
+    )
+
+    q, _qd, _qm, _qdm, tau, s = full
+    failed = status[:, 0] != E.STATUS_OK
+    e = q - qr[None]
+    if failed.any():
+        # failed runs are NaN-padded; compute on zeros and blank their rows after
+        e = np.where(failed[:, None, None], 0.0, e)
+        s = np.where(failed[:, None, None], 0.0, s)
+        tau = np.where(failed[:, None, None], 0.0, tau)
+    table = _metric_table(
+        t, e, s, tau, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E, window=DEFAULT_WINDOW,
+        cutoff_hz=DEFAULT_CUTOFF_HZ,
+    )  # fmt: skip
+    out = {}
+    for name, v in table.items():
+        v = np.array(v, dtype=np.float64)
+        v[failed] = np.nan
+        out[name] = v
+    return out
+
+
 def simulate(
-    plant: PlanarArm,
-    controller: SlidingModeController,
+    plant: ArmModel | SteppedPlant,
+    controller: Controller,
     reference: Reference,
     *,
     q0: ArrayLike,
@@ -309,14 +622,16 @@ def simulate(
     torque_limit: ArrayLike | None = None,
     seed: int = 0,
     qd_limit: float = DEFAULT_QD_LIMIT,
+    throw: bool = True,
 ) -> SimResult:
     """Simulate one closed-loop run of ``plant`` under ``controller`` tracking ``reference``.
 
     Parameters
     ----------
-    plant : PlanarArm
-        The real arm (the controller holds its own nominal model).
-    controller : SlidingModeController
+    plant : ArmModel or SteppedPlant
+        The real arm (the controller holds its own nominal model): a compiled model such as
+        :class:`~slidingarm.PlanarArm`, or a plant stepped from Python.
+    controller : Controller
         The control law; its state is reset before the run.
     reference : Reference
         Desired trajectory with analytic derivatives, evaluated at the sample times.
@@ -334,9 +649,12 @@ def simulate(
     torque_limit : float or array_like (n,), optional
         Actuator limit :math:`|\\tau_i| \\le \\tau_{max,i}` (N m), applied to the controller output.
     seed : int
-        Seed of the run's ``numpy.random.Generator``, recorded in the result.
+        Seed of the run's ``numpy.random.SeedSequence``, recorded in the result.
     qd_limit : float
         Speed (rad/s) beyond which the run is declared diverged.
+    throw : bool
+        ``True``: raise on divergence; ``False``: return the result with ``success=False``,
+        its ``message``, and NaN samples after the failure.
 
     Returns
     -------
@@ -346,21 +664,27 @@ def simulate(
     Raises
     ------
     SimulationError
-        If the run diverges (non-finite state or runaway velocity); names time and joint.
+        If the run diverges (non-finite state or runaway velocity) and ``throw``; names time
+        and joint.
     """
-    if not isinstance(plant, PlanarArm):
-        raise ValueError(f"plant must be a PlanarArm, got {type(plant).__name__}")
-    if not isinstance(controller, SlidingModeController):
-        raise ValueError(
-            f"controller must be a SlidingModeController, got {type(controller).__name__}"
+    if not isinstance(plant, ArmModel | SteppedPlant):
+        raise TypeError(
+            f"plant must be an arm model (PlanarArm, ...) or a SteppedPlant, got {type(plant).__name__}"
         )
+    if not isinstance(controller, Controller):
+        raise TypeError(f"controller must be a Controller, got {type(controller).__name__}")
     q0a = _vectors("q0", q0, plant.n)
     if q0a.shape[0] != 1:
         raise ValueError(
             f"q0 must have shape ({plant.n},) for one run; use simulate_batch for a batch"
         )
-    if not isinstance(seed, int | np.integer):
-        raise ValueError(f"seed must be an integer, got {seed!r}")
+    if isinstance(seed, bool | np.bool_) or not isinstance(seed, int | np.integer):
+        raise TypeError(f"seed must be an integer, got {seed!r}")
+    if torque_limit is not None and np.ndim(torque_limit) > 1:
+        raise ValueError(
+            f"torque_limit must be > 0 N m, a scalar or one per joint ({plant.n}), got "
+            f"shape {np.shape(torque_limit)} (per-run limits belong to simulate_batch)"
+        )
     batch = simulate_batch(
         plant,
         controller,
@@ -375,5 +699,6 @@ def simulate(
         torque_limit=torque_limit,
         seeds=int(seed),
         qd_limit=qd_limit,
+        throw=throw,
     )
     return batch[0]

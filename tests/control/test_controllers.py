@@ -388,12 +388,13 @@ def test_super_twisting_gains_are_validated() -> None:
 
 
 @pytest.mark.parametrize("name", sorted(CLASSES))
-def test_model_must_be_a_planar_arm(name: str) -> None:
+def test_model_must_be_an_arm_model(name: str) -> None:
     with pytest.raises(
-        ValueError, match=r"model must be a PlanarArm \(the controller's nominal arm\), got str"
+        TypeError, match=r"model must be an arm model \(an ArmModel such as PlanarArm: the "
+        r"controller's nominal arm\), got str"
     ):
         make(name, model="paper")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match=r"model must be a PlanarArm .*got NoneType"):
+    with pytest.raises(TypeError, match=r"model must be an arm model .*got NoneType"):
         make(name, model=None)  # type: ignore[arg-type]
 
 

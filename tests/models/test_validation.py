@@ -174,15 +174,20 @@ def test_every_state_argument_is_checked(method: str, names: list[str]) -> None:
     fn = getattr(ARM, method)
     good = [np.full(3, 0.1) for _ in names]
     for k, name in enumerate(names):
-        for bad, message in [
-            (np.zeros(2), f"{name} must have shape (3,) or (B, 3) for this 3-joint arm, got (2,)"),
-            (np.array([0.0, np.nan, 0.0]), f"{name} must be finite (no NaN or inf)"),
-            (np.array([[0.0, 0.0, np.inf]]), f"{name} must be finite (no NaN or inf)"),
-            (["a", "b", "c"], f"{name} must be an array of numbers, got"),
-        ]:
+        for bad, error, message in [
+            (np.zeros(2), ValueError,
+             f"{name} must have shape (3,) or (B, 3) for this 3-joint arm, got (2,)"),
+            (np.array([0.0, np.nan, 0.0]), ValueError, f"{name} must be finite (no NaN or inf)"),
+            (np.array([[0.0, 0.0, np.inf]]), ValueError, f"{name} must be finite (no NaN or inf)"),
+            (["a", "b", "c"], TypeError, f"{name} must be an array of numbers, got"),
+            ("0.1", TypeError, f"{name} must be an array of numbers, got str"),
+            (b"abc", TypeError, f"{name} must be an array of numbers, got bytes"),
+            ({0.1, 0.2, 0.3}, TypeError, f"{name} must be an array of numbers, got set"),
+            ([0.1, True, 0.2], TypeError, f"{name} must be an array of numbers, got list"),
+        ]:  # fmt: skip
             args = list(good)
             args[k] = bad
-            with pytest.raises(ValueError, match=_m(message)):
+            with pytest.raises(error, match=_m(message)):
                 fn(*args)
 
 

@@ -1,5 +1,7 @@
-"""Sliding surfaces, switching and reaching laws, and the model-based controllers."""
+"""The control-law contract, the sliding-mode family, custom compiled laws and their checker."""
 
+from slidingarm.control.base import Controller, LawHandle
+from slidingarm.control.check import ControllerCheckError, check_controller
 from slidingarm.control.controllers import (
     FTSMC,
     NTSMC,
@@ -8,6 +10,7 @@ from slidingarm.control.controllers import (
     TSMC,
     SlidingModeController,
 )
+from slidingarm.control.custom import CustomController
 from slidingarm.control.surfaces import ftsm_convergence_time, tsm_convergence_time
 
 __all__ = [
@@ -16,7 +19,12 @@ __all__ = [
     "PDSMC",
     "SWITCHING_LAWS",
     "TSMC",
+    "Controller",
+    "ControllerCheckError",
+    "CustomController",
+    "LawHandle",
     "SlidingModeController",
+    "check_controller",
     "ftsm_convergence_time",
     "tsm_convergence_time",
 ]

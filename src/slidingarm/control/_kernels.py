@@ -1,8 +1,10 @@
 """Compiled sliding-mode control law (SPEC §3), shared by the Python call path and the simulator.
 
-A controller is encoded as an integer code vector ``ci`` and a float parameter table ``cf`` of
-shape ``(NCF, n)`` (one column per joint), plus the nominal arm ``(arm, g)`` the law uses. The
-codes and row indices are defined here, once.
+A sliding-mode controller reaches compiled code as one float64 parameter vector ``p``, private
+to this family: ``NCI`` integer codes (stored as floats) followed by the ``(NCF, n)`` table of
+per-joint parameters, row by row (:func:`pack`, :func:`code`, :func:`par`). The nominal arm
+the law uses is a model handle ``(mkind, mparams, mg)`` evaluated through
+:mod:`slidingarm.models._dispatch`. The codes and row indices are defined here, once.
 
 The law, per joint, with :math:`e = q - q_d`, :math:`\\dot e = \\dot q - \\dot q_d`:
 
@@ -20,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from slidingarm.models import _kernels as MK
+from slidingarm.models import _dispatch as MD
 
 # --- integer codes: ci[CI_*] ------------------------------------------------------------------
 CI_SURFACE = 0
@@ -52,17 +54,41 @@ CF_K2 = 5
 CF_EPS_E = 6
 NCF = 7
 
-# rows of the control workspace after the dynamics' MK.WORK_ROWS: nu, r, the commanded
-# acceleration, and the paper's law's right-hand side, solution and f
-_ROW_NU = MK.WORK_ROWS
-_ROW_R = MK.WORK_ROWS + 1
-_ROW_ACC = MK.WORK_ROWS + 2
-_ROW_RHS = MK.WORK_ROWS + 3
-_ROW_COL = MK.WORK_ROWS + 4
-_ROW_F = MK.WORK_ROWS + 5
+# rows of the control workspace after the dynamics' MD.WORK_ROWS: nu, r, the commanded
+# acceleration, the paper's law's right-hand side, solution and f, and the bias h that the
+# engine hands to a custom law
+_ROW_NU = MD.WORK_ROWS
+_ROW_R = MD.WORK_ROWS + 1
+_ROW_ACC = MD.WORK_ROWS + 2
+_ROW_RHS = MD.WORK_ROWS + 3
+_ROW_COL = MD.WORK_ROWS + 4
+_ROW_F = MD.WORK_ROWS + 5
+ROW_H = MD.WORK_ROWS + 6
 
 #: Rows of the control workspace ``work`` (shape ``(CONTROL_WORK_ROWS, n)``).
-CONTROL_WORK_ROWS = MK.WORK_ROWS + 6
+CONTROL_WORK_ROWS = MD.WORK_ROWS + 7
+
+
+def pack(ci: np.ndarray, cf: np.ndarray) -> np.ndarray:
+    """The parameter vector ``p`` of codes ``ci`` (NCI,) and table ``cf`` (NCF, n)."""
+    return np.concatenate([np.asarray(ci, dtype=np.float64), np.ravel(cf)])
+
+
+def unpack(p: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(ci, cf)`` of a parameter vector made by :func:`pack`."""
+    return p[:NCI].astype(np.int64), p[NCI:].reshape(NCF, n).copy()
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def code(p: np.ndarray, i: int) -> int:
+    """Integer code ``i`` (a ``CI_*``) of the parameter vector ``p``."""
+    return int(p[i])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def par(p: np.ndarray, row: int, j: int, n: int) -> float:
+    """Row ``row`` (a ``CF_*``), joint ``j`` of the parameter table of ``p``."""
+    return p[NCI + row * n + j]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -91,18 +117,18 @@ def switch(code: int, s: float, width: float) -> float:
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _surface_joint(
-    ci: np.ndarray, cf: np.ndarray, j: int, ej: float, edj: float
+    p: np.ndarray, j: int, n: int, ej: float, edj: float
 ) -> tuple[float, float]:
     """``(s, nu)`` of joint ``j`` for the errors ``ej, edj``; see :func:`surface_into`."""
-    if ci[CI_SURFACE] == SURFACE_FAST_TERMINAL:
-        alpha = cf[CF_ALPHA, j]
-        beta = cf[CF_BETA, j]
+    if code(p, CI_SURFACE) == SURFACE_FAST_TERMINAL:
+        alpha = par(p, CF_ALPHA, j, n)
+        beta = par(p, CF_BETA, j, n)
         s = edj + alpha * ej
         gain = alpha
         if beta != 0.0:
-            gamma = cf[CF_GAMMA, j]
+            gamma = par(p, CF_GAMMA, j, n)
             ae = abs(ej)
-            eps_e = cf[CF_EPS_E, j]
+            eps_e = par(p, CF_EPS_E, j, n)
             if ae >= eps_e:
                 pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
                 s += beta * pw * _sign(ej)
@@ -111,8 +137,8 @@ def _surface_joint(
                 s += beta * (ae**gamma) * _sign(ej)
                 gain += beta * gamma * eps_e ** (gamma - 1.0)
         return s, gain * edj
-    beta = cf[CF_BETA, j]
-    gamma = cf[CF_GAMMA, j]
+    beta = par(p, CF_BETA, j, n)
+    gamma = par(p, CF_GAMMA, j, n)
     aed = abs(edj)
     sg = _sign(edj)
     return ej + (aed**gamma) * sg / beta, beta / gamma * (aed ** (2.0 - gamma)) * sg
@@ -120,8 +146,7 @@ def _surface_joint(
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def surface_into(
-    ci: np.ndarray,
-    cf: np.ndarray,
+    p: np.ndarray,
     e: np.ndarray,
     ed: np.ndarray,
     s_out: np.ndarray,
@@ -140,13 +165,15 @@ def surface_into(
     .. math:: s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^\\gamma,\\qquad
               \\nu = \\frac{\\beta}{\\gamma}\\,\\mathrm{sig}(\\dot e)^{2-\\gamma}
     """
-    for j in range(e.shape[0]):
-        s_out[j], nu_out[j] = _surface_joint(ci, cf, j, e[j], ed[j])
+    n = e.shape[0]
+    for j in range(n):
+        s_out[j], nu_out[j] = _surface_joint(p, j, n, e[j], ed[j])
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="never")
 def _paper_law_into(
-    arm: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
     g: float,
     q: np.ndarray,
     qd: np.ndarray,
@@ -167,13 +194,13 @@ def _paper_law_into(
     r = work[_ROW_R]
     # h into acc (no longer needed), f = -M^{-1} h into f_saved
     h = acc
-    MK.mass_and_bias_into(arm, g, q, qd, mmat, h, work)
+    MD.mass_and_bias(mkind, mparams, g, q, qd, mmat, h, work)
     rhs = work[_ROW_RHS]
     col = work[_ROW_COL]
     f_saved = work[_ROW_F]
     for j in range(n):
         rhs[j] = -h[j]
-    MK.cholesky_solve_into(mmat, rhs, col, lw)
+    MD.cholesky_solve_into(mmat, rhs, col, lw)
     for j in range(n):
         f_saved[j] = col[j]
     for i in range(n):
@@ -181,15 +208,15 @@ def _paper_law_into(
         for j in range(n):
             rhs[j] = 0.0
         rhs[i] = 1.0
-        MK.cholesky_solve_into(mmat, rhs, col, lw)
+        MD.cholesky_solve_into(mmat, rhs, col, lw)
         tau_out[i] = (-f_saved[i] - nu[i]) / col[i] - r[i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def control_into(
-    ci: np.ndarray,
-    cf: np.ndarray,
-    arm: np.ndarray,
+    p: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
     g: float,
     q: np.ndarray,
     qd: np.ndarray,
@@ -209,9 +236,8 @@ def control_into(
     ``q, qd`` are what the controller measures; ``st_state`` (n,) is the super-twisting
     integral :math:`w`, advanced by ``dt`` after use (ignored by the classic reaching law).
     ``mmat``, ``lw`` are (n, n) scratch arrays, ``work`` is ``(CONTROL_WORK_ROWS, n)``; on
-    return its rows 0-1 hold the cosines and sines of the absolute angles of ``q`` (see
-    :func:`slidingarm.models._kernels.aba_from_angles_into`, which the simulator feeds them to
-    when the plant's state is ``q``).
+    return it holds the nominal model kind's kinematics of ``q``
+    (:mod:`slidingarm.models._dispatch`).
 
     ``law = model`` (SPEC §3): :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q,\\dot q)`,
     computed as the inverse dynamics (RNEA, O(n)) of the nominal arm at the acceleration
@@ -223,33 +249,33 @@ def control_into(
     :math:`M^{-1}` used as a scalar).
     """
     n = q.shape[0]
-    swcode = ci[CI_SWITCHING]
-    classic = ci[CI_REACHING] == REACH_CLASSIC
+    swcode = code(p, CI_SWITCHING)
+    classic = code(p, CI_REACHING) == REACH_CLASSIC
     nu = work[_ROW_NU]
     r = work[_ROW_R]
     acc = work[_ROW_ACC]
     for j in range(n):
-        s, nu_j = _surface_joint(ci, cf, j, q[j] - q_ref[j], qd[j] - qd_ref[j])
+        s, nu_j = _surface_joint(p, j, n, q[j] - q_ref[j], qd[j] - qd_ref[j])
         s_out[j] = s
         nu[j] = nu_j
         # reaching term r
         if classic:
-            r[j] = cf[CF_K, j] * switch(swcode, s, cf[CF_WIDTH, j])
+            r[j] = par(p, CF_K, j, n) * switch(swcode, s, par(p, CF_WIDTH, j, n))
         else:
-            r[j] = cf[CF_K, j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
-            st_state[j] += dt * cf[CF_K2, j] * switch(swcode, s, cf[CF_WIDTH, j])
+            r[j] = par(p, CF_K, j, n) * math.sqrt(abs(s)) * _sign(s) + st_state[j]
+            st_state[j] += dt * par(p, CF_K2, j, n) * switch(swcode, s, par(p, CF_WIDTH, j, n))
         acc[j] = qdd_ref[j] - nu_j - r[j]
-    if ci[CI_LAW] == LAW_MODEL:
-        MK.inverse_dynamics_into(arm, g, q, qd, acc, tau_out, work)
+    if code(p, CI_LAW) == LAW_MODEL:
+        MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)
     else:
-        _paper_law_into(arm, g, q, qd, acc, tau_out, mmat, lw, work)
+        _paper_law_into(mkind, mparams, g, q, qd, acc, tau_out, mmat, lw, work)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def control_once(
-    ci: np.ndarray,
-    cf: np.ndarray,
-    arm: np.ndarray,
+    p: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
     g: float,
     q: np.ndarray,
     qd: np.ndarray,
@@ -270,5 +296,6 @@ def control_once(
     mmat = scratch[CONTROL_WORK_ROWS : CONTROL_WORK_ROWS + n]
     lw = scratch[CONTROL_WORK_ROWS + n : CONTROL_WORK_ROWS + 2 * n]
     control_into(
-        ci, cf, arm, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, mmat, lw, work
-    )
+        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, mmat,
+        lw, work,
+    )  # fmt: skip

@@ -23,7 +23,9 @@ from typing import Any, Literal, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
+from slidingarm.control.base import Controller, LawHandle
 from slidingarm.control.surfaces import (
     DEFAULT_EPS_E,
     FastTerminal,
@@ -34,7 +36,7 @@ from slidingarm.control.surfaces import (
     TerminalSurface,
     gain,
 )
-from slidingarm.models.planar import PlanarArm
+from slidingarm.models.base import ArmModel
 
 __all__ = [
     "FTSMC",
@@ -67,14 +69,14 @@ _REACHING: dict[str, int] = {"classic": CK.REACH_CLASSIC, "super-twisting": CK.R
 DEFAULT_WIDTH = 0.05
 
 
-class SlidingModeController:
+class SlidingModeController(Controller):
     """A sliding-mode controller: surface + reaching law + nominal model.
 
     Prefer the named controllers :class:`PDSMC`, :class:`TSMC`, :class:`FTSMC`, :class:`NTSMC`.
 
     Parameters
     ----------
-    model : PlanarArm
+    model : ArmModel
         The controller's nominal arm (:math:`\\hat M, \\hat h`); pass an arm different from the
         plant's to model uncertainty.
     surface : Surface
@@ -98,7 +100,7 @@ class SlidingModeController:
 
     def __init__(
         self,
-        model: PlanarArm,
+        model: ArmModel,
         surface: Surface,
         *,
         k: ArrayLike,
@@ -108,10 +110,17 @@ class SlidingModeController:
         reaching: Reaching = "classic",
         k2: ArrayLike | None = None,
     ) -> None:
-        if not isinstance(model, PlanarArm):
-            raise ValueError(
-                f"model must be a PlanarArm (the controller's nominal arm), got {type(model).__name__}"
+        if not isinstance(model, ArmModel):
+            raise TypeError(
+                "model must be an arm model (an ArmModel such as PlanarArm: the controller's "
+                f"nominal arm), got {type(model).__name__}"
             )
+        if not hasattr(self, "_kwargs"):
+            # a bare SlidingModeController: its surface is a constructor argument too
+            self._kwargs: dict[str, Any] = {"surface": surface}
+        self._kwargs.update(
+            k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2
+        )
         if switching not in SWITCHING_LAWS:
             raise ValueError(
                 f"switching must be one of {sorted(SWITCHING_LAWS)}, got {switching!r}"
@@ -174,6 +183,9 @@ class SlidingModeController:
         self._reaching: str = reaching
         self._ci = ci
         self._cf = cf
+        p = CK.pack(ci, cf)
+        p.setflags(write=False)
+        self._p = p
         self._k = kk
         self._width = None if switching == "sign" else ww
         self._k2 = None if reaching == "classic" else kk2
@@ -182,14 +194,78 @@ class SlidingModeController:
         self._state = np.zeros(n)
         self._s = np.empty(n)
         self._n = n
-        self._arm = model.packed
-        self._g = model.gravity
+        mh = model.handle
+        self._mkind = mh.kind
+        self._mparams = mh.params
+        self._g = mh.g
 
     # ------------------------------------------------------------------ parameters
     @property
-    def model(self) -> PlanarArm:
+    def model(self) -> ArmModel:
         """The nominal arm the law uses."""
         return self._model
+
+    @property
+    def handle(self) -> LawHandle:
+        """The law for compiled code: the sliding-mode kind, its parameter vector."""
+        return LawHandle(LD.LAW_SLIDING_MODE, self._p, self.state_size, LD.null_pointer())
+
+    @property
+    def state_size(self) -> int:
+        """``n`` for super-twisting (the integral :math:`w`), else 0."""
+        return self._n if self._reaching == "super-twisting" else 0
+
+    @property
+    def gain_names(self) -> tuple[str, ...]:
+        """The constructor's numeric parameters this controller uses (for :meth:`replace`)."""
+        names = [k for k, v in self._surface_params().items() if k != "surface" and _numeric(v)]
+        names.append("k")
+        if self._width is not None:
+            names.append("width")
+        if self._k2 is not None:
+            names.append("k2")
+        return tuple(names)
+
+    @property
+    def s_unit(self) -> str:
+        """Unit of ``s``: rad/s for :math:`s = \\dot e + \\dots`, rad for the nonsingular surface
+        :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`."""
+        return "rad" if self._ci[CK.CI_SURFACE] == CK.SURFACE_NONSINGULAR else "rad/s"
+
+    def replace(self, **changes: Any) -> SlidingModeController:
+        """A new controller of the same class with ``changes`` to the constructor's arguments
+        (``model`` included), validated as a new one is.
+
+        Changing ``gamma`` drops ``p``/``q`` given before, and the reverse; switching to
+        ``"sign"`` drops ``width``; switching ``reaching`` to ``"classic"`` drops ``k2``.
+
+        Examples
+        --------
+        >>> ftsmc.replace(k=30, switching="tanh", width=0.05)  # doctest: +SKIP
+        """
+        kwargs = dict(self._kwargs)
+        allowed = {"model", *kwargs}
+        unknown = sorted(set(changes) - allowed)
+        if unknown:
+            raise TypeError(
+                f"{type(self).__name__}.replace() got unknown parameter(s) {unknown}; "
+                f"it takes {sorted(allowed)}"
+            )
+        if "gamma" in changes:
+            kwargs.pop("p", None)
+            kwargs.pop("q", None)
+        if {"p", "q"} & set(changes):
+            kwargs["gamma"] = None
+        if changes.get("switching") == "sign" and "width" not in changes:
+            kwargs["width"] = None
+        if changes.get("reaching") == "classic" and "k2" not in changes:
+            kwargs["k2"] = None
+        kwargs.update(changes)
+        model = kwargs.pop("model", self._model)
+        if type(self) is SlidingModeController:
+            surface = kwargs.pop("surface")
+            return SlidingModeController(model, surface, **kwargs)
+        return type(self)(model, **kwargs)
 
     @property
     def surface(self) -> Surface:
@@ -227,8 +303,8 @@ class SlidingModeController:
         return self._reaching == "super-twisting"
 
     def compiled(self) -> tuple[NDArray[np.int64], FloatArray, FloatArray, float]:
-        """``(ci, cf, arm, g)``: the arrays the compiled loop takes (copies)."""
-        return self._ci.copy(), self._cf.copy(), self._arm.copy(), self._g
+        """``(ci, cf, model params, g)``: the codes and table packed in :attr:`handle` (copies)."""
+        return self._ci.copy(), self._cf.copy(), self._mparams.copy(), self._g
 
     def _surface_params(self) -> dict[str, Any]:
         """The surface's entries of :meth:`to_dict`: here the surface's own description
@@ -287,9 +363,9 @@ class SlidingModeController:
         # the cheapest fresh array (a view of a (2, n) one cost 0.15 us more); s is discarded
         tau = np.empty(self._n)
         CK.control_once(
-            self._ci,
-            self._cf,
-            self._arm,
+            self._p,
+            self._mkind,
+            self._mparams,
             self._g,
             q,
             qd,
@@ -313,8 +389,11 @@ class SlidingModeController:
         qdd_ref: ArrayLike,
         *,
         dt: float | None = None,
+        t: float = 0.0,
     ) -> tuple[FloatArray, FloatArray]:
         """Validated evaluation: returns ``(tau, s)``, each shape (n,).
+
+        ``t`` (s) is accepted for the contract's sake; the sliding-mode laws do not use it.
 
         ``dt`` (s) is required for a stateful law (it advances the super-twisting integral).
         The singularity guard keeps the torque finite for every finite state whose dynamics
@@ -350,9 +429,9 @@ class SlidingModeController:
         tau, s = np.empty(n), np.empty(n)
         state = self._state.copy()  # restored if the call is rejected below
         CK.control_once(
-            self._ci,
-            self._cf,
-            self._arm,
+            self._p,
+            self._mkind,
+            self._mparams,
             self._g,
             *arrays,
             self._state,
@@ -379,6 +458,10 @@ class SlidingModeController:
         return self._surface.value(e, ed)
 
 
+def _numeric(v: object) -> bool:
+    return isinstance(v, float | int | list) and not isinstance(v, bool)
+
+
 def _tolist(x: FloatArray) -> float | list[float]:
     return float(x) if x.ndim == 0 else [float(v) for v in x]
 
@@ -395,7 +478,7 @@ class PDSMC(SlidingModeController):
 
     def __init__(
         self,
-        model: PlanarArm,
+        model: ArmModel,
         *,
         lam: ArrayLike,
         k: ArrayLike,
@@ -405,10 +488,11 @@ class PDSMC(SlidingModeController):
         reaching: Reaching = "classic",
         k2: ArrayLike | None = None,
     ) -> None:
+        self._kwargs = {"lam": lam}
         surface = LinearSurface(lam)
         lam_a = surface.alpha
         self._lam = lam_a
-        if isinstance(model, PlanarArm) and lam_a.ndim == 1 and lam_a.shape[0] != model.n:
+        if isinstance(model, ArmModel) and lam_a.ndim == 1 and lam_a.shape[0] != model.n:
             # named here: the linear surface stores lam in the alpha row
             raise ValueError(
                 f"lam has {lam_a.shape[0]} values but the model has {model.n} joints "
@@ -450,7 +534,7 @@ class TSMC(SlidingModeController):
 
     def __init__(
         self,
-        model: PlanarArm,
+        model: ArmModel,
         *,
         beta: ArrayLike,
         gamma: float | None = None,
@@ -465,6 +549,10 @@ class TSMC(SlidingModeController):
         eps_e: float = DEFAULT_EPS_E,
         allow_nonterminal: bool = False,
     ) -> None:
+        self._kwargs = {
+            "beta": beta, "gamma": gamma, "p": p, "q": q, "eps_e": eps_e,
+            "allow_nonterminal": allow_nonterminal,
+        }  # fmt: skip
         surface = TerminalSurface(
             beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
         )
@@ -488,7 +576,7 @@ class FTSMC(SlidingModeController):
 
     def __init__(
         self,
-        model: PlanarArm,
+        model: ArmModel,
         *,
         alpha: ArrayLike,
         beta: ArrayLike,
@@ -504,6 +592,10 @@ class FTSMC(SlidingModeController):
         eps_e: float = DEFAULT_EPS_E,
         allow_nonterminal: bool = False,
     ) -> None:
+        self._kwargs = {
+            "alpha": alpha, "beta": beta, "gamma": gamma, "p": p, "q": q, "eps_e": eps_e,
+            "allow_nonterminal": allow_nonterminal,
+        }  # fmt: skip
         surface = FastTerminal(
             alpha, beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
         )
@@ -528,7 +620,7 @@ class NTSMC(SlidingModeController):
 
     def __init__(
         self,
-        model: PlanarArm,
+        model: ArmModel,
         *,
         beta: ArrayLike,
         gamma: float | None = None,
@@ -541,6 +633,7 @@ class NTSMC(SlidingModeController):
         reaching: Reaching = "classic",
         k2: ArrayLike | None = None,
     ) -> None:
+        self._kwargs = {"beta": beta, "gamma": gamma, "p": p, "q": q}
         surface = NonsingularTerminal(beta, gamma, p=p, q=q)
         super().__init__(
             model, surface, k=k, switching=switching, width=width, law=law, reaching=reaching, k2=k2

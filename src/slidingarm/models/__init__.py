@@ -1,5 +1,8 @@
-"""Arm models: the closed-form planar arm (and its URDF/MJCF exports)."""
+"""Arm models: the contract (:class:`ArmModel`), the closed-form planar arm, Python-stepped
+plants."""
 
+from slidingarm.models.base import ArmModel, ModelHandle
 from slidingarm.models.planar import MassModel, PlanarArm
+from slidingarm.models.stepped import SteppedArm, SteppedPlant
 
-__all__ = ["MassModel", "PlanarArm"]
+__all__ = ["ArmModel", "MassModel", "ModelHandle", "PlanarArm", "SteppedArm", "SteppedPlant"]

@@ -50,6 +50,8 @@ __all__ = [
     "inverse_dynamics_into",
     "mass_and_bias_into",
     "mass_matrix_into",
+    "potential_energy",
+    "rk4_step",
     "shifted_angles_into",
 ]
 
@@ -499,3 +501,81 @@ def mass_and_bias_into(
     angles_into(q, work)
     _mass_from_angles(arm, q.shape[0], mmat, work)
     _rnea_from_angles(arm, g, qd, qd, 0.0, h, work)
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def potential_energy(arm: np.ndarray, g: float, q: np.ndarray, work: np.ndarray) -> float:
+    """Potential energy :math:`V = g \\sum_i m_i y_{c,i}` (J, zero at ``y = 0``), with
+    :math:`y_{c,i} = \\sum_{a<i} l_a \\sin\\phi_a + c_i \\sin\\phi_i`."""
+    angles_into(q, work)
+    y = 0.0
+    v = 0.0
+    for i in range(q.shape[0]):
+        v += arm[0, i] * (y + arm[2, i] * work[1, i])
+        y += arm[1, i] * work[1, i]
+    return g * v
+
+
+# rows of the (RK4_ROWS, n) scratch of rk4_step
+_RK_K = 0  # 4 rows: the acceleration stages
+_RK_DQ = 4
+_RK_QTMP = 5
+_RK_VTMP = 6
+_RK_BASE = 7  # 2 rows: the sines and cosines of the step's start
+#: Rows of the scratch array of :func:`rk4_step`.
+RK4_ROWS = 9
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def rk4_step(
+    arm: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    h: float,
+    known: bool,
+    scratch: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """Advance ``(q, qd)`` in place by one RK4 step of length ``h`` with constant ``tau``.
+
+    ``scratch`` is ``(RK4_ROWS, n)``: the four acceleration stages (the velocity stages are
+    recomputed from them) and small vectors. The stages' sines and cosines are those of ``q``
+    (in ``work`` rows 0-1 already if ``known``) rotated by the stage's step
+    (:func:`shifted_angles_into`). Returns ``False`` if a mass matrix was not positive definite.
+    """
+    n = q.shape[0]
+    k = scratch[_RK_K : _RK_K + 4]
+    dq = scratch[_RK_DQ]
+    qtmp = scratch[_RK_QTMP]
+    vtmp = scratch[_RK_VTMP]
+    base = scratch[_RK_BASE : _RK_BASE + 2]
+    if not known:
+        angles_into(q, work)
+    for i in range(n):
+        base[0, i] = work[0, i]
+        base[1, i] = work[1, i]
+        vtmp[i] = qd[i]
+    # Stage s is at (q + c_s h v_{s-1}, qd + c_s h a_{s-1}), c = (1/2, 1/2, 1), with
+    # v_1 = qd and v_s = qd + h/2 a_{s-1} for s = 2, 3. One loop, so that the inlined
+    # forward dynamics is compiled once rather than once per stage.
+    ok = True
+    for s in range(4):
+        if s > 0:
+            c = 1.0 if s == 3 else 0.5
+            for i in range(n):
+                v_prev = qd[i] if s == 1 else qd[i] + 0.5 * h * k[s - 2, i]
+                dq[i] = c * h * v_prev
+                qtmp[i] = q[i] + dq[i]
+                vtmp[i] = qd[i] + c * h * k[s - 1, i]
+            shifted_angles_into(base, dq, qtmp, work)
+        ok &= aba_from_angles_into(arm, g, vtmp, tau, k[s], work)
+    for i in range(n):
+        v1 = qd[i]
+        v2 = qd[i] + 0.5 * h * k[0, i]
+        v3 = qd[i] + 0.5 * h * k[1, i]
+        v4 = qd[i] + h * k[2, i]
+        q[i] += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
+        qd[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+    return ok

@@ -16,10 +16,10 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from slidingarm.models import _kernels as K
+from slidingarm.models import _dispatch as D
+from slidingarm.models.base import ArmModel
 
 __all__ = ["MassModel", "PlanarArm"]
 
@@ -53,63 +53,7 @@ def _vector(name: str, value: ArrayLike, n: int | None) -> FloatArray:
     return arr
 
 
-@njit(cache=True)
-def _batch_mass(arm: FloatArray, q: FloatArray, out: FloatArray) -> None:  # pragma: no cover
-    work = np.empty((K.WORK_ROWS, q.shape[1]))
-    for b in range(q.shape[0]):
-        K.mass_matrix_into(arm, q[b], out[b], work)
-
-
-@njit(cache=True)
-def _batch_coriolis(
-    arm: FloatArray, q: FloatArray, qd: FloatArray, out: FloatArray
-) -> None:  # pragma: no cover
-    work = np.empty((K.WORK_ROWS, q.shape[1]))
-    for b in range(q.shape[0]):
-        K.coriolis_into(arm, q[b], qd[b], out[b], work)
-
-
-@njit(cache=True)
-def _batch_gravity(
-    arm: FloatArray, g: float, q: FloatArray, out: FloatArray
-) -> None:  # pragma: no cover
-    work = np.empty((K.WORK_ROWS, q.shape[1]))
-    for b in range(q.shape[0]):
-        K.gravity_into(arm, g, q[b], out[b], work)
-
-
-@njit(cache=True)
-def _batch_bias(
-    arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, out: FloatArray
-) -> None:  # pragma: no cover
-    work = np.empty((K.WORK_ROWS, q.shape[1]))
-    for b in range(q.shape[0]):
-        K.bias_into(arm, g, q[b], qd[b], out[b], work)
-
-
-@njit(cache=True)
-def _batch_inverse(
-    arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, qdd: FloatArray, out: FloatArray
-) -> None:  # pragma: no cover
-    work = np.empty((K.WORK_ROWS, q.shape[1]))
-    for b in range(q.shape[0]):
-        K.inverse_dynamics_into(arm, g, q[b], qd[b], qdd[b], out[b], work)
-
-
-@njit(cache=True)
-def _batch_forward(
-    arm: FloatArray, g: float, q: FloatArray, qd: FloatArray, tau: FloatArray, out: FloatArray
-) -> int:  # pragma: no cover
-    """Fill ``out``; return the first state index whose M(q) is not positive definite, or -1."""
-    n = q.shape[1]
-    work = np.empty((K.WORK_ROWS, n))
-    for b in range(q.shape[0]):
-        if not K.forward_dynamics_into(arm, g, q[b], qd[b], tau[b], out[b], work):
-            return b
-    return -1
-
-
-class PlanarArm:
+class PlanarArm(ArmModel):
     """An immutable planar serial arm with ``n >= 1`` revolute joints.
 
     Parameters
@@ -203,8 +147,40 @@ class PlanarArm:
         object.__setattr__(self, "_gravity", g)
         object.__setattr__(self, "_packed", packed)
 
+    KIND = D.KIND_PLANAR
+
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"PlanarArm is immutable; cannot set {name!r}")
+
+    def __reduce__(self) -> tuple[object, ...]:
+        # rebuilt through the constructor (validated again, immutable again)
+        return (_rebuild, (self.to_dict(), self._mass_model))
+
+    def replace(self, **changes: object) -> PlanarArm:
+        """A new arm with some of ``masses``, ``lengths``, ``com``, ``inertia``, ``gravity``
+        changed, validated as a new arm is.
+
+        Raises
+        ------
+        TypeError
+            If a name is not one of those parameters.
+        """
+        base = self.to_dict()
+        unknown = sorted(set(changes) - set(base))
+        if unknown:
+            raise TypeError(
+                f"PlanarArm.replace() got unknown parameter(s) {unknown}; "
+                f"the parameters are {sorted(base)}"
+            )
+        base.update(changes)
+        return PlanarArm(
+            base["masses"],  # type: ignore[arg-type]
+            base["lengths"],  # type: ignore[arg-type]
+            com=base["com"],  # type: ignore[arg-type]
+            inertia=base["inertia"],  # type: ignore[arg-type]
+            gravity=base["gravity"],  # type: ignore[arg-type]
+            mass_model=self._mass_model,  # type: ignore[arg-type]
+        )
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -299,6 +275,13 @@ class PlanarArm:
         return self._mass_model
 
     @property
+    def params(self) -> FloatArray:
+        """The planar kind's parameter block: ``[m; l; c; I]`` flattened row by row (read-only)."""
+        flat = self._packed.reshape(-1)
+        flat.setflags(write=False)
+        return flat
+
+    @property
     def packed(self) -> FloatArray:
         """Parameters as the ``(4, n)`` array ``[m; l; c; I]`` the compiled kernels take (a copy)."""
         return self._packed.copy()
@@ -326,119 +309,6 @@ class PlanarArm:
 
     def __hash__(self) -> int:
         return hash((self._packed.tobytes(), self._gravity))
-
-    # ------------------------------------------------------------------ input handling
-    def _state(self, name: str, value: ArrayLike) -> tuple[FloatArray, bool]:
-        """Return ``value`` as a C-contiguous ``(B, n)`` array and whether it was one state."""
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name} must be an array of numbers, got {value!r}") from exc
-        n = self.n
-        if arr.ndim == 1 and arr.shape[0] == n:
-            single = True
-            arr = arr.reshape(1, n)
-        elif arr.ndim == 2 and arr.shape[1] == n:
-            single = False
-        else:
-            raise ValueError(
-                f"{name} must have shape ({n},) or (B, {n}) for this {n}-joint arm, got {arr.shape}"
-            )
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite (no NaN or inf)")
-        return np.ascontiguousarray(arr), single
-
-    def _states(self, **named: ArrayLike) -> tuple[list[FloatArray], bool]:
-        arrays: list[FloatArray] = []
-        singles: list[bool] = []
-        for name, value in named.items():
-            arr, single = self._state(name, value)
-            arrays.append(arr)
-            singles.append(single)
-        batch = {a.shape[0] for a, s in zip(arrays, singles, strict=True) if not s}
-        if len(batch) > 1:
-            raise ValueError(
-                f"batch sizes differ: {', '.join(f'{k} {a.shape}' for k, a in zip(named, arrays, strict=True))}"
-            )
-        size = batch.pop() if batch else 1
-        arrays = [np.ascontiguousarray(np.broadcast_to(a, (size, self.n))) for a in arrays]
-        return arrays, all(singles)
-
-    @staticmethod
-    def _out(x: FloatArray, single: bool) -> FloatArray:
-        return x[0] if single else x
-
-    # ------------------------------------------------------------------ dynamics
-    def mass_matrix(self, q: ArrayLike) -> FloatArray:
-        """Joint-space inertia matrix :math:`M(q)`, shape (n, n) or (B, n, n).
-
-        .. math:: M = \\sum_i m_i J_{c,i}^T J_{c,i} + I_i \\mathbf 1_{\\le i}\\mathbf 1_{\\le i}^T
-        """
-        (qa,), single = self._states(q=q)
-        out = np.empty((qa.shape[0], self.n, self.n))
-        _batch_mass(self._packed, qa, out)
-        return self._out(out, single)
-
-    def coriolis(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """Coriolis matrix :math:`C(q, \\dot q) = \\sum_i m_i J_{c,i}^T \\dot J_{c,i}`.
-
-        :math:`\\dot M - 2C` is skew-symmetric. Shape (n, n) or (B, n, n).
-        """
-        (qa, qda), single = self._states(q=q, qd=qd)
-        out = np.empty((qa.shape[0], self.n, self.n))
-        _batch_coriolis(self._packed, qa, qda, out)
-        return self._out(out, single)
-
-    def gravity_torque(self, q: ArrayLike) -> FloatArray:
-        """Gravity torque :math:`G(q) = \\partial V/\\partial q`, shape (n,) or (B, n)."""
-        (qa,), single = self._states(q=q)
-        out = np.empty_like(qa)
-        _batch_gravity(self._packed, self._gravity, qa, out)
-        return self._out(out, single)
-
-    def bias(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """Bias torque :math:`h(q, \\dot q) = C(q, \\dot q)\\dot q + G(q)`, shape (n,) or (B, n)."""
-        (qa, qda), single = self._states(q=q, qd=qd)
-        out = np.empty_like(qa)
-        _batch_bias(self._packed, self._gravity, qa, qda, out)
-        return self._out(out, single)
-
-    def forward_dynamics(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> FloatArray:
-        """Joint acceleration :math:`\\ddot q = M(q)^{-1}(\\tau - h(q, \\dot q))`."""
-        (qa, qda, ta), single = self._states(q=q, qd=qd, tau=tau)
-        out = np.empty_like(qa)
-        bad = _batch_forward(self._packed, self._gravity, qa, qda, ta, out)
-        if bad >= 0:
-            raise ValueError(
-                f"M(q) is not positive definite at q = {qa[bad].tolist()}; the arm is degenerate"
-            )
-        return self._out(out, single)
-
-    def inverse_dynamics(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
-        """Joint torque :math:`\\tau = M(q)\\ddot q + h(q, \\dot q)` (recursive Newton-Euler)."""
-        (qa, qda, qdda), single = self._states(q=q, qd=qd, qdd=qdd)
-        out = np.empty_like(qa)
-        _batch_inverse(self._packed, self._gravity, qa, qda, qdda, out)
-        return self._out(out, single)
-
-    def kinetic_energy(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """Kinetic energy :math:`T = \\tfrac12 \\dot q^T M(q) \\dot q` (J), scalar or (B,)."""
-        (qa, qda), single = self._states(q=q, qd=qd)
-        mm = np.empty((qa.shape[0], self.n, self.n))
-        _batch_mass(self._packed, qa, mm)
-        e = 0.5 * np.einsum("bi,bij,bj->b", qda, mm, qda)
-        return e[0] if single else e
-
-    def potential_energy(self, q: ArrayLike) -> FloatArray:
-        """Potential energy :math:`V = g \\sum_i m_i y_{c,i}` (J, zero at y = 0), scalar or (B,)."""
-        (qa,), single = self._states(q=q)
-        y = self._points(qa)[1][..., 1]  # COM heights (B, n)
-        v = self._gravity * (y @ self._masses)
-        return v[0] if single else v
-
-    def total_energy(self, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """Total mechanical energy :math:`T + V` (J), scalar or (B,)."""
-        return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
     # ------------------------------------------------------------------ kinematics
     def _points(self, qa: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -495,8 +365,7 @@ class PlanarArm:
 
         def vel_term(v: FloatArray) -> FloatArray:
             vb = np.ascontiguousarray(np.broadcast_to(v, (nb, 3)))
-            cm = np.empty((nb, 3, 3))
-            _batch_coriolis(self._packed, qa, vb, cm)
+            cm = self.coriolis(qa, vb)
             return np.einsum("bij,bj->bi", cm, vb)
 
         sq = [vel_term(eye[i]) for i in range(3)]
@@ -580,3 +449,15 @@ class PlanarArm:
             lines.append(f"{indent}</body>")
         lines += ["  </worldbody>", "</mujoco>", ""]
         return "\n".join(lines)
+
+
+def _rebuild(params: dict[str, object], mass_model: str) -> PlanarArm:
+    """Unpickle a :class:`PlanarArm` (module level, so that pickle finds it)."""
+    return PlanarArm(
+        params["masses"],  # type: ignore[arg-type]
+        params["lengths"],  # type: ignore[arg-type]
+        com=params["com"],  # type: ignore[arg-type]
+        inertia=params["inertia"],  # type: ignore[arg-type]
+        gravity=params["gravity"],  # type: ignore[arg-type]
+        mass_model=mass_model,  # type: ignore[arg-type]
+    )
