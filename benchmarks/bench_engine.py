@@ -1,13 +1,16 @@
 """Speed of the compiled closed loop against its targets (issue 3, point 6).
 
-Run as ``python benchmarks/bench_engine.py [--quick]``. Everything is measured in this one
+Run as ``python benchmarks/bench_engine.py [--quick | --cold]``. Everything is measured in this one
 run, for a shared, noisy machine: every time is the median of several repeats after a
 warm-up, and each ratio is the median of the ratios of runs that took turns (ours timed
 warm within each turn).
 
 1. The paper's run (3 joints, 4.5 s at 5e-4 s, 9001 samples, RK4): end to end through
    :func:`slidingarm.simulate`, and the compiled loop alone (``_engine.run_batch`` on the
-   arrays ``simulate`` prepares).
+   arrays ``simulate`` prepares), both taking turns with a plain numba reference: the same loop
+   written from scratch in ``_numba_reference.py`` (explicit ``M``, ``h``, RK4, the FTSMC law),
+   checked to give our trajectory to 1e-9. The ratios ours / reference, measured in the same
+   run, compare code across commits on a machine whose load changes.
 2. The same closed loop stepped through MuJoCo from Python (``arm.to_mjcf()``, RK4, timestep
    ``dt``; the controller's Python ``__call__`` each sample, its torque applied through
    ``qfrc_applied``, one ``mj_step`` per sample), checked to track like ours.
@@ -18,6 +21,11 @@ warm within each turn).
    ``--quick`` also a first call that compiles from an empty cache.
 6. ``import slidingarm`` in fresh processes, and the heavy packages it imports eagerly.
 7. ``simulate_batch`` throughput, on all threads and on one.
+
+``--cold`` measures only the compilation from an empty cache: three fresh processes, each with
+its own empty ``NUMBA_CACHE_DIR``, and the median of their first ``simulate`` (which follows a
+first controller call, timed separately). The processes use only slidingarm's public API, so
+the measurement is the same for any version of the code on ``PYTHONPATH``.
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ from typing import Any
 import numba
 import numpy as np
 
+import _numba_reference as NR
 import slidingarm as sa
 from slidingarm import _engine as E
 from slidingarm.control.surfaces import FastTerminalSurface
@@ -49,6 +58,8 @@ T_FINAL = 4.5
 E2E_MS = 10.0
 MUJOCO_RATIO = 20.0
 NUMPY_RATIO = 100.0
+REFERENCE_DEV = 1e-9
+COLD_RUNS = 3
 CALL_P99_US = 5.0
 IMPORT_S = 1.0
 
@@ -110,6 +121,34 @@ def kernel_args() -> tuple[Any, ...]:
     with _captured_kernel_args() as calls:
         run_ours()
     return calls[0]
+
+
+# ---------------------------------------------------------------------------- numba reference
+def reference_args() -> tuple[Any, ...]:
+    """The arguments of the plain numba reference loop for the paper's run.
+
+    The reference has the paper's arm and gains written in; they are checked against the
+    problem ``simulate`` is given, so that both solve the same one.
+    """
+    arm, ctrl, ref = paper_problem()
+    surf = ctrl.surface
+    assert isinstance(surf, FastTerminalSurface)
+    same = (
+        np.array_equal(arm.masses, NR.MASSES)
+        and np.array_equal(arm.lengths, NR.LENGTHS)
+        and np.array_equal(arm.com, NR.LENGTHS)
+        and not np.any(arm.inertia)
+        and arm.gravity == NR.GRAVITY
+        and np.all(surf.alpha == NR.ALPHA)
+        and np.all(surf.beta == NR.BETA)
+        and surf.gamma == NR.GAMMA
+        and surf.eps_e == NR.EPS_E
+        and np.all(ctrl.k == NR.K)
+    )
+    if not same:
+        raise AssertionError("the numba reference's arm or gains are not the paper run's")
+    t = np.arange(round(T_FINAL / DT) + 1) * DT
+    return NR.paper_inputs(PAPER_Q0, *ref.evaluate(t), DT)
 
 
 # ---------------------------------------------------------------------------- MuJoCo baseline
@@ -262,6 +301,31 @@ def fresh_process(env: dict[str, str] | None = None) -> dict[str, float]:
     return result
 
 
+def cold_compile(runs: int = COLD_RUNS) -> list[dict[str, float]]:
+    """:func:`fresh_process` ``runs`` times, each with its own empty numba cache."""
+    out = []
+    for _ in range(runs):
+        with tempfile.TemporaryDirectory() as cache:
+            out.append(fresh_process({"NUMBA_CACHE_DIR": cache}))
+    return out
+
+
+def report_cold() -> None:
+    runs = cold_compile()
+    print(f"compilation from an empty numba cache, {len(runs)} fresh processes (median)")
+    for key, what in (
+        ("import", "import slidingarm"),
+        ("call", "first controller call"),
+        ("first", "first simulate"),
+        ("warm", "second simulate"),
+    ):
+        values = [r[key] for r in runs]
+        each = ", ".join(f"{v:.3f}" for v in values)
+        print(f"  {what:<24} {np.median(values):7.3f} s   ({each})")
+    both = [r["call"] + r["first"] for r in runs]
+    print(f"  {'controller + simulate':<24} {np.median(both):7.3f} s")
+
+
 def import_profile() -> tuple[float, float, float, list[tuple[str, str, float]]]:
     """``import slidingarm`` in fresh processes (medians of 3): the statement's own time, the
     process's wall time minus that of a bare interpreter (which adds the interpreter's exit),
@@ -333,22 +397,43 @@ def batch_rate(b: int, threads: int | None) -> float:
 # ---------------------------------------------------------------------------- report
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repeats, smaller batch")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help="fewer repeats, smaller batch")
+    mode.add_argument(
+        "--cold",
+        action="store_true",
+        help=f"only the first simulate from an empty numba cache ({COLD_RUNS} fresh processes)",
+    )
     args = parser.parse_args()
     quick = args.quick
     reps = 15 if quick else 60
 
     print(f"python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}")
     print(f"{platform.machine()}, {os.cpu_count()} CPUs, {numba.config.NUMBA_NUM_THREADS} threads")
+    if args.cold:
+        report_cold()
+        return
     print(
         f"paper run: 3 joints, {T_FINAL} s at dt = {DT} s, RK4 ({round(T_FINAL / DT) + 1} samples)\n"
     )
 
     ours = run_ours()
     kargs = kernel_args()
-    e2e, kernel = timed(run_ours, lambda: E.run_batch(*kargs), repeats=reps)
+    rargs = reference_args()
+    nr_dev = float(np.abs(NR.closed_loop(*rargs) - ours.q).max())
+    if not nr_dev <= REFERENCE_DEV:
+        raise AssertionError(
+            f"the numba reference's q differs from simulate's by {nr_dev:.1e} rad "
+            f"(> {REFERENCE_DEV:g}): they do not run the same loop"
+        )
+    e2e, kernel, nref = timed(
+        run_ours, lambda: E.run_batch(*kargs), lambda: NR.closed_loop(*rargs), repeats=reps
+    )
     e2e_ms = float(np.median(e2e)) * 1e3
     kernel_ms = float(np.median(kernel)) * 1e3
+    nr_ms = float(np.median(nref)) * 1e3
+    nr_e2e_ratio = float(np.median(e2e / nref))
+    nr_kernel_ratio = float(np.median(kernel / nref))
 
     arm, ctrl, ref = paper_problem()
     q_mj = mujoco_loop(arm, ctrl, ref)
@@ -396,6 +481,15 @@ def main() -> None:
     row(
         "paper run, compiled loop only",
         f"{kernel_ms:.2f} ms ({kernel_ms / 9000 * 1e6:.0f} ns/step)",
+    )
+    row("plain numba reference, same loop", f"{nr_ms:.2f} ms")
+    row("  ratio ours / reference (end to end)", f"{nr_e2e_ratio:.3f}")
+    row("  ratio compiled loop / reference", f"{nr_kernel_ratio:.3f}")
+    row(
+        "  max |q_ref_loop - q_ours|",
+        f"{nr_dev:.1e} rad",
+        "<= 1e-9",
+        nr_dev <= REFERENCE_DEV,
     )
     row("MuJoCo from Python, same loop", f"{mj_ms:.1f} ms")
     row(
