@@ -434,10 +434,9 @@ class _GainFields(_Strict):
     @field_validator("p", "q")
     @classmethod
     def _odd(cls, v: int | None, info: ValidationInfo) -> int | None:
+        # positive and odd: OddInt
         if v is None:
             return v
-        if v <= 0 or v % 2 == 0:
-            raise ValueError(f"must be a positive odd integer, got {v!r}")
         if info.field_name == "q":
             p = info.data.get("p")
             if p is not None and not v < p and not info.data.get("allow_nonterminal", False):

@@ -6,15 +6,14 @@ The checks themselves are :mod:`slidingarm._validate`'s, the same the library's 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict
 from pydantic.functional_validators import PlainValidator
 from pydantic.json_schema import WithJsonSchema
 
-from slidingarm._validate import is_integer, is_real
+from slidingarm._validate import integer, per_joint, plain, real
 
 _NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
 
@@ -23,77 +22,101 @@ def _bound(low: float | None, inclusive: bool) -> str:
     return "" if low is None else (f" >= {low:g}" if inclusive else f" > {low:g}")
 
 
-def _below(x: float, low: float | None, inclusive: bool) -> bool:
-    return low is not None and (x < low or (x == low and not inclusive))
+def _as_value_error(check: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """``check`` raising :class:`ValueError` only: pydantic turns a ValueError into a validation
+    error (with the key path) but lets a TypeError escape."""
+
+    def wrapped(v: Any) -> Any:
+        try:
+            return check(v)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(str(exc)) from None
+
+    return wrapped
 
 
 def _per_joint_check(
     low: float | None, *, inclusive: bool = False, what: str = ""
 ) -> Callable[[Any], float | list[float]]:
-    """Validator of a finite number or a non-empty list of them (one per joint)."""
+    """Validator of a finite number or a non-empty list of them (one per joint):
+    :func:`slidingarm._validate.per_joint` in the scenario files' wording."""
     bound = _bound(low, inclusive)
 
     def check(v: Any) -> float | list[float]:
-        if is_real(v):
-            values, scalar = [float(v)], True
-        elif isinstance(v, list | tuple) and v and all(is_real(x) for x in v):
-            values, scalar = [float(x) for x in v], False
-        else:
-            raise ValueError(
-                f"must be a number{bound} or a list of them (one per joint){what}, got {v!r}"
-            )
-        for x in values:
-            if not math.isfinite(x):
-                raise ValueError(f"must be finite, got {v!r}")
-            if _below(x, low, inclusive):
-                raise ValueError(f"must be{bound}{what} (a scalar or one per joint), got {v!r}")
-        return values[0] if scalar else values
+        invalid = f"must be a number{bound} or a list of them (one per joint){what}, got {v!r}"
+        value = per_joint(
+            "",
+            v,
+            low=low,
+            inclusive=inclusive,
+            invalid=invalid,
+            not_finite=f"must be finite, got {v!r}",
+            out_of_range=f"must be{bound}{what} (a scalar or one per joint), got {v!r}",
+        )
+        return plain(value)
 
-    return check
+    return _as_value_error(check)
 
 
 def _vector_check(
     low: float | None = None, *, inclusive: bool = False
 ) -> Callable[[Any], list[float]]:
-    """Validator of a non-empty list of finite numbers (one per joint)."""
+    """Validator of a non-empty list of finite numbers (one per joint):
+    :func:`slidingarm._validate.per_joint`, a list required."""
     bound = _bound(low, inclusive)
 
     def check(v: Any) -> list[float]:
-        if not (isinstance(v, list | tuple) and v and all(is_real(x) for x in v)):
-            raise ValueError(f"must be a list of numbers{bound} (one per joint), got {v!r}")
-        values = [float(x) for x in v]
-        if any(not math.isfinite(x) or _below(x, low, inclusive) for x in values):
-            raise ValueError(f"must be a list of finite numbers{bound}, got {v!r}")
-        return values
+        invalid = f"must be a list of numbers{bound} (one per joint), got {v!r}"
+        if not isinstance(v, list | tuple):
+            raise ValueError(invalid)
+        bad_value = f"must be a list of finite numbers{bound}, got {v!r}"
+        value = per_joint(
+            "",
+            v,
+            low=low,
+            inclusive=inclusive,
+            invalid=invalid,
+            not_finite=bad_value,
+            out_of_range=bad_value,
+        )
+        assert isinstance(value, tuple)
+        return list(value)
 
-    return check
-
-
-def _type_check(allowed: str, accept: Callable[[Any], bool]) -> Callable[[Any], Any]:
-    """Before-validator of a plain number: ``accept`` (:func:`is_real` or :func:`is_integer`)
-    lets a value through to pydantic, which converts and bounds it; ``allowed`` says what is
-    allowed (``"a number > 0"``, ``"an integer >= 1"``).
-
-    Without it, pydantic's lax mode would read ``true`` as 1, the float ``2.0`` as the integer
-    2 and the string ``"4.5"`` as 4.5.
-    """
-
-    def check(v: Any) -> Any:
-        if isinstance(v, bool):
-            raise ValueError(f"must be {allowed}, not a boolean, got {v!r}")
-        if not accept(v):
-            raise ValueError(f"must be {allowed}, got {v!r}")
-        return v
-
-    return check
+    return _as_value_error(check)
 
 
-def _number(allowed: str) -> BeforeValidator:
-    return BeforeValidator(_type_check(allowed, is_real))
+def _number(
+    allowed: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_inclusive: bool = True,
+    finite: bool = True,
+) -> PlainValidator:
+    """A real number (:func:`slidingarm._validate.real`): not a boolean and not a string, which
+    pydantic's lax mode would read as 1 and 4.5; ``allowed`` says what is allowed
+    (``"a number > 0"``)."""
+    return PlainValidator(
+        _as_value_error(
+            lambda v: real(
+                "",
+                v,
+                low=low,
+                high=high,
+                low_inclusive=low_inclusive,
+                finite=finite,
+                allowed=allowed,
+            )
+        )
+    )
 
 
-def _integer(allowed: str) -> BeforeValidator:
-    return BeforeValidator(_type_check(allowed, is_integer))
+def _integer(allowed: str, *, low: int | None = None, odd: bool = False) -> PlainValidator:
+    """An integer (:func:`slidingarm._validate.integer`): neither a boolean nor a float,
+    however integral."""
+    return PlainValidator(
+        _as_value_error(lambda v: integer("", v, low=low, odd=odd, allowed=allowed))
+    )
 
 
 def _schema(low: float | None, *, inclusive: bool = False, scalar: bool = True) -> dict[str, Any]:
@@ -103,6 +126,14 @@ def _schema(low: float | None, *, inclusive: bool = False, scalar: bool = True) 
         item["minimum" if inclusive else "exclusiveMinimum"] = low
     array = {"type": "array", "items": item, "minItems": 1}
     return {"anyOf": [item, array]} if scalar else array
+
+
+def _number_schema(**bounds: float) -> WithJsonSchema:
+    return WithJsonSchema({"type": "number", **bounds})
+
+
+def _integer_schema(**bounds: int) -> WithJsonSchema:
+    return WithJsonSchema({"type": "integer", **bounds})
 
 
 PositivePerJoint = Annotated[
@@ -132,16 +163,20 @@ NonNegativeVector = Annotated[
     PlainValidator(_vector_check(0.0, inclusive=True)),
     WithJsonSchema(_schema(0.0, inclusive=True, scalar=False)),
 ]
-# The type check comes last: it wraps the constraints, so it runs first, and the JSON schema
-# keeps them (``minimum``, ``exclusiveMinimum``).
-PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False), _number("a number > 0")]
-NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False), _number("a number >= 0")]
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False), _number("a finite number")]
-Probability = Annotated[float, Field(ge=0, le=1), _number("a number in [0, 1]")]
-Real = Annotated[float, _number("a number")]
-PositiveInt = Annotated[int, Field(ge=1), _integer("an integer >= 1")]
-NonNegativeInt = Annotated[int, Field(ge=0), _integer("an integer >= 0")]
-OddInt = Annotated[int, _integer("a positive odd integer")]
+PositiveFloat = Annotated[
+    float, _number("a number > 0", low=0.0, low_inclusive=False), _number_schema(exclusiveMinimum=0)
+]
+NonNegativeFloat = Annotated[float, _number("a number >= 0", low=0.0), _number_schema(minimum=0)]
+FiniteFloat = Annotated[float, _number("a finite number"), _number_schema()]
+Probability = Annotated[
+    float, _number("a number in [0, 1]", low=0.0, high=1.0), _number_schema(minimum=0, maximum=1)
+]
+Real = Annotated[float, _number("a number", finite=False), _number_schema()]
+PositiveInt = Annotated[int, _integer("an integer >= 1", low=1), _integer_schema(minimum=1)]
+NonNegativeInt = Annotated[int, _integer("an integer >= 0", low=0), _integer_schema(minimum=0)]
+OddInt = Annotated[
+    int, _integer("a positive odd integer", low=1, odd=True), _integer_schema(minimum=1)
+]
 Switching = Literal["sign", "tanh", "sat"]
 
 
