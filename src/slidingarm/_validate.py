@@ -168,7 +168,7 @@ def real(
     try:
         x = float(value)
     except OverflowError:
-        x = math.copysign(math.inf, value)
+        x = math.inf if value > 0 else -math.inf  # type: ignore[operator]
     bad = (
         (finite and not math.isfinite(x))
         or ((low is not None or high is not None) and math.isnan(x))
@@ -250,7 +250,7 @@ def _float(x: object) -> float:
     try:
         return float(x)  # type: ignore[arg-type]
     except OverflowError:  # an integer beyond the float range
-        return math.copysign(math.inf, x)  # type: ignore[arg-type]
+        return math.inf if x > 0 else -math.inf  # type: ignore[operator]
 
 
 def _numeric_array(value: object) -> NDArray[np.float64] | None:

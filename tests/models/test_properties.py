@@ -470,5 +470,3 @@ def test_batch_shapes_and_values_match_single_states(
     )
     # lists are accepted like arrays
     np.testing.assert_array_equal(arm.mass_matrix(q.tolist()), arm.mass_matrix(q))
-
-
