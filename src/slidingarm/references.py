@@ -31,6 +31,7 @@ import abc
 import csv
 import json
 import math
+import pickle
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -810,6 +811,32 @@ class CallableReference(Reference):
     def __repr__(self) -> str:
         d = self.to_dict()
         return f"CallableReference(q={d['q']}, qd={d['qd']}, qdd={d['qdd']}, n={self._n})"
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle by the functions themselves: possible when each of them pickles (a
+        module-level function, a :func:`functools.partial` of one, …), not for a lambda or a
+        nested function, for which a :class:`TypeError` says so."""
+        for name, f in zip(("q", "qd", "qdd"), self._funcs, strict=True):
+            try:
+                pickle.dumps(f)
+            except Exception as exc:
+                raise TypeError(
+                    f"CallableReference cannot be pickled: its {name} function {f!r} does not "
+                    f"pickle ({type(exc).__name__}: {exc}); give module-level functions, or use "
+                    "a reference that always pickles (TableReference, SineReference, "
+                    "QuinticReference, PaperReference)"
+                ) from exc
+        return (_callable_reference, (*self._funcs, self._n))
+
+
+def _callable_reference(
+    q: Callable[[FloatArray], ArrayLike],
+    qd: Callable[[FloatArray], ArrayLike],
+    qdd: Callable[[FloatArray], ArrayLike],
+    n: int,
+) -> CallableReference:
+    """Rebuild a pickled :class:`CallableReference`."""
+    return CallableReference(q, qd, qdd, n=n)
 
 
 # --------------------------------------------------------------------------------------------
