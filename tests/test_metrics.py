@@ -22,6 +22,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import slidingarm.metrics as M
 from slidingarm.metrics import (
     DEFAULT_CUTOFF_HZ,
     DEFAULT_DELTA_E,
@@ -494,3 +495,51 @@ def test_summary_of_a_batch_stacks_runs() -> None:
         single = summary(run)
         part = df[df["run"] == b].drop(columns="run").reset_index(drop=True)
         pd.testing.assert_frame_equal(part, single, check_exact=False, rtol=1e-12)
+
+
+# ---------------------------------------------------------------------------- windows
+def test_late_start_is_the_first_sample_of_the_window() -> None:
+    t = np.arange(11) * 0.1  # 0 .. 1 s
+    assert M.late_start(t, fraction=0.5) == 5
+    assert M.late_start(t, fraction=1.0) == 0
+    # at least two applied steps stay in the window
+    assert M.late_start(t, fraction=1e-6) == 8
+    for bad in (0.0, 1.5, True, "0.5"):
+        with pytest.raises(ValueError, match="fraction"):
+            M.late_start(t, fraction=bad)  # type: ignore[arg-type]
+
+
+def test_max_step_alternation_and_rms_follow_their_formulas() -> None:
+    k = np.arange(9)
+    flip = np.where(k % 2 == 0, 1.0, -1.0)
+    ramp = 0.5 * k
+    tau = np.stack([flip, ramp], axis=1)
+    # the last row is never applied: steps of rows 0..7
+    np.testing.assert_array_equal(M.max_step(tau), [2.0, 0.5])
+    np.testing.assert_array_equal(M.alternation(tau), [1.0, 0.0])
+    assert M.alternation(tau[:3]).tolist() == [0.0, 0.0]  # one step: nothing reverses
+    np.testing.assert_allclose(M.rms(tau), np.sqrt(np.mean(tau**2, axis=0)), rtol=1e-15)
+    # batches: one value per run and joint
+    assert M.max_step(np.stack([tau, 2 * tau])).shape == (2, 2)
+
+
+def test_terminal_gain_is_the_guarded_formula() -> None:
+    e = np.full((5, 2), 1e-8)
+    got = M.terminal_gain(e, beta=[2.0, 1.0], gamma=0.6, eps_e=1e-9, dt=5e-4)
+    np.testing.assert_allclose(got, np.array([2.0, 1.0]) * 0.6 * 1e-8 ** (-0.4) * 5e-4)
+    guarded = M.terminal_gain(e * 1e-4, beta=2.0, gamma=0.6, eps_e=1e-9, dt=5e-4)
+    np.testing.assert_allclose(guarded, 1.2 * 1e-9 ** (-0.4) * 5e-4)
+
+
+def test_late_metrics_names_and_window() -> None:
+    t = np.arange(101) * 0.01
+    tau = np.stack([np.sin(t), np.where(np.arange(101) % 2 == 0, 1.0, -1.0)], axis=1)
+    s = np.full_like(tau, 0.2)
+    late = M.late_metrics(t, tau, s, np.zeros_like(tau), dt=0.01)
+    assert tuple(late) == M.LATE_COLUMNS
+    np.testing.assert_array_equal(late["chattering_late"], M.chattering(t[50:], tau[50:]))
+    np.testing.assert_array_equal(late["max_step_late"], M.max_step(tau[50:]))
+    assert np.isnan(late["terminal_gain_late"]).all()
+    np.testing.assert_allclose(late["s_rms_late"], 0.2)
+    short = M.late_metrics(t[:2], tau[:2], s[:2], s[:2], dt=0.01)
+    assert all(np.isnan(v).all() for v in short.values())

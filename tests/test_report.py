@@ -1,4 +1,4 @@
-"""Tests for slidingarm.report: a report written from small synthetic tables and one tiny
+"""Tests for slidingarm.report and the paper's report (slidingarm.study.paper_report): a report written from small synthetic tables and one tiny
 figure is complete, self-contained, escaped and never prints inf or nan."""
 
 from __future__ import annotations
@@ -16,15 +16,11 @@ from matplotlib.figure import Figure
 from slidingarm.metrics import DEFAULT_CUTOFF_HZ, DEFAULT_DELTA_E, DEFAULT_DELTA_S, DEFAULT_WINDOW
 from slidingarm.plotting import FIGURES, controller_style, save_figure
 from slidingarm.plotting.figures import SMOOTH_SECONDS
-from slidingarm.report import (
-    PAPER_FIGURES,
-    ReportContext,
-    ScenarioKind,
-    format_value,
-    write_report,
-)
+from slidingarm.report import format_value
 from slidingarm.report._format import controller_label
-from slidingarm.study.analysis import ALTERNATING, PAPER_MSE_SWITCHING
+from slidingarm.study.analysis import ALTERNATING
+from slidingarm.study.paper import PAPER_MSE_SWITCHING
+from slidingarm.study.paper_report import PAPER_FIGURES, ReportContext, ScenarioKind, write_report
 
 PAPER_MSE = {"ftsmc": 0.1331, "tsmc": 0.1976, "pdsmc": 0.4698}
 SCENARIOS = ("A_sign", "B_tanh", "C_noise")

@@ -66,9 +66,9 @@ def test_has_no_bool(value: Any) -> None:
 
 def test_as_real_and_positive() -> None:
     assert as_real("x", np.float32(0.5)) == 0.5 and isinstance(as_real("x", 2), float)
-    with pytest.raises(ValueError, match=r"^x must be a number, not a boolean, got np\.True_$"):
+    with pytest.raises(TypeError, match=r"^x must be a number, not a boolean, got np\.True_$"):
         as_real("x", np.True_)
-    with pytest.raises(ValueError, match=r"^x must be a number, got '2'$"):
+    with pytest.raises(TypeError, match=r"^x must be a number, got '2'$"):
         as_real("x", "2")
     assert positive("x", 3) == 3.0
     with pytest.raises(ValueError, match=r"^x must be a finite value > 0 \(why\), got 0$"):
@@ -113,6 +113,12 @@ def test_per_joint_values() -> None:
     ],
 )  # fmt: skip
 def test_per_joint_errors(value: Any, kw: dict[str, Any], message: str) -> None:
-    with pytest.raises(ValueError) as info:
+    # a wrong type (booleans, strings, None) is a TypeError; a wrong value a ValueError
+    wrong_type = (
+        has_bool(value) or isinstance(value, str) or (isinstance(value, list) and None in value)
+    )
+    with pytest.raises(TypeError if wrong_type else ValueError) as info:
         per_joint("g", value, **kw)
     assert str(info.value) == message
+    if not wrong_type:
+        assert not isinstance(info.value, TypeError)

@@ -5,8 +5,23 @@ never a number here (``k=True`` is a mistake, not a gain of 1), whether it is Py
 ``bool`` or numpy's ``np.bool_``, alone, in a sequence or as an array's dtype; nor is a
 string, even one that reads as a number.
 
+One validator per meaning, serving the library's classes and the scenario files alike:
+
+- :func:`real` -- a real number, finite unless told otherwise, with optional bounds;
+- :func:`integer` -- an integer with an optional lower bound (and oddness);
+- :func:`per_joint` -- a finite number, or one per joint (a non-empty 1-D sequence);
+- :func:`number_array` -- anything array-like of real numbers, as a float array (shape checks
+  are the caller's).
+
+A value of the wrong *type* (a string, bytes, a boolean, a set, ``None``, a mapping, ...)
+raises :class:`ParameterTypeError`, a :class:`TypeError`; a number of the wrong *value* (NaN,
+out of range, an integer too large for a float) raises :class:`ValueError`. Neither
+:class:`OverflowError` nor :class:`AttributeError` ever escapes.
+
 The messages name the parameter and what is allowed; callers with an established wording pass
-their own (``invalid``, ``boolean``, ``out_of_range`` of :func:`per_joint`).
+their own (``message``, or ``invalid``, ``boolean``, ``not_finite``, ``out_of_range`` of
+:func:`per_joint`). An empty ``name`` gives messages that start with "must" (the scenario files
+put the key path in front).
 """
 
 from __future__ import annotations
@@ -17,7 +32,45 @@ import numbers
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["as_real", "has_bool", "is_integer", "is_real", "per_joint", "plain", "positive"]
+__all__ = [
+    "ParameterTypeError",
+    "as_real",
+    "has_bool",
+    "integer",
+    "is_integer",
+    "is_real",
+    "number_array",
+    "per_joint",
+    "plain",
+    "positive",
+    "real",
+]
+
+
+class ParameterTypeError(TypeError, ValueError):
+    """A parameter of the wrong type: a string, bytes, a boolean, a set, ``None``, … where a
+    number or a sequence of numbers goes.
+
+    A :class:`TypeError`. It is also a :class:`ValueError`, so that code written when every
+    invalid parameter raised :class:`ValueError` (``except ValueError``) still catches it.
+    """
+
+
+def _subject(name: str) -> str:
+    return f"{name} " if name else ""
+
+
+def _bounds_text(
+    low: float | None, high: float | None, low_inclusive: bool, high_inclusive: bool
+) -> str:
+    if low is not None and high is not None:
+        left, right = "[" if low_inclusive else "(", "]" if high_inclusive else ")"
+        return f" in {left}{low:g}, {high:g}{right}"
+    if low is not None:
+        return f" {'>=' if low_inclusive else '>'} {low:g}"
+    if high is not None:
+        return f" {'<=' if high_inclusive else '<'} {high:g}"
+    return ""
 
 
 def is_real(value: object, *, finite: bool = False) -> bool:
@@ -63,21 +116,118 @@ def has_bool(value: object) -> bool:
     return False
 
 
-def as_real(name: str, value: object) -> float:
-    """``value`` as a float, or a :class:`ValueError` naming ``name`` if it is not a real number.
+def real(
+    name: str,
+    value: object,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_inclusive: bool = True,
+    high_inclusive: bool = True,
+    finite: bool = True,
+    allowed: str | None = None,
+    message: str | None = None,
+) -> float:
+    """``value`` as a float, checked to be a real number (:func:`is_real`) within bounds.
+
+    Parameters
+    ----------
+    name : str
+        The parameter, as the messages name it ("" for messages that start with "must").
+    value : object
+        Anything.
+    low, high : float, optional
+        Bounds; ``low_inclusive`` and ``high_inclusive`` (default True) say whether they are
+        allowed.
+    finite : bool, default True
+        Reject NaN and ±inf (and integers too large for a float).
+    allowed : str, optional
+        What is allowed, in words, e.g. ``"a number > 0"``; default from the bounds.
+    message : str, optional
+        The whole message for any fault (type or value).
 
     Raises
     ------
+    ParameterTypeError
+        ``"{name} must be {allowed}, not a boolean, got {value!r}"`` for a boolean,
+        ``"{name} must be {allowed}, got {value!r}"`` for anything else that is not a number.
     ValueError
+        ``"{name} must be {allowed}, got {value!r}"`` for a number out of range or not finite.
+    """
+    what = allowed or (
+        ("a finite number" if finite and low is None and high is None else "a number")
+        + _bounds_text(low, high, low_inclusive, high_inclusive)
+    )
+    subject = _subject(name)
+    if isinstance(value, bool | np.bool_):
+        raise ParameterTypeError(
+            message or f"{subject}must be {what}, not a boolean, got {value!r}"
+        )
+    if not isinstance(value, numbers.Real):
+        raise ParameterTypeError(message or f"{subject}must be {what}, got {value!r}")
+    try:
+        x = float(value)
+    except OverflowError:
+        x = math.inf if value > 0 else -math.inf  # type: ignore[operator]
+    bad = (
+        (finite and not math.isfinite(x))
+        or ((low is not None or high is not None) and math.isnan(x))
+        or (low is not None and (x < low or (x == low and not low_inclusive)))
+        or (high is not None and (x > high or (x == high and not high_inclusive)))
+    )
+    if bad:
+        raise ValueError(message or f"{subject}must be {what}, got {value!r}")
+    return x
+
+
+def integer(
+    name: str,
+    value: object,
+    *,
+    low: float | None = None,
+    odd: bool = False,
+    allowed: str | None = None,
+    message: str | None = None,
+) -> int:
+    """``value`` as an int, checked to be an integer (:func:`is_integer`: not a boolean, not a
+    float however integral) ``>= low``, and odd with ``odd``.
+
+    Raises
+    ------
+    ParameterTypeError
+        ``"{name} must be {allowed}, not a boolean, got {value!r}"`` or
+        ``"{name} must be {allowed}, got {value!r}"`` for a value that is not an integer.
+    ValueError
+        ``"{name} must be {allowed}, got {value!r}"`` for an integer out of range or even.
+    """
+    what = allowed or ("an odd integer" if odd else "an integer") + (
+        "" if low is None else f" >= {low:g}"
+    )
+    subject = _subject(name)
+    if isinstance(value, bool | np.bool_):
+        raise ParameterTypeError(
+            message or f"{subject}must be {what}, not a boolean, got {value!r}"
+        )
+    if not is_integer(value):
+        raise ParameterTypeError(message or f"{subject}must be {what}, got {value!r}")
+    k = int(value)  # type: ignore[call-overload]
+    if (low is not None and k < low) or (odd and k % 2 == 0):
+        raise ValueError(message or f"{subject}must be {what}, got {value!r}")
+    return k
+
+
+def as_real(name: str, value: object) -> float:
+    """``value`` as a float, or an error naming ``name`` if it is not a real number (NaN and
+    inf are real numbers here).
+
+    Raises
+    ------
+    ParameterTypeError
         ``"{name} must be a number, not a boolean, got {value!r}"`` for a boolean,
         ``"{name} must be a number, got {value!r}"`` for anything else that is not
         :func:`is_real`.
     """
-    if isinstance(value, bool | np.bool_):
-        raise ValueError(f"{name} must be a number, not a boolean, got {value!r}")
-    if not isinstance(value, numbers.Real):  # with the line above: not is_real(value)
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    return float(value)
+    return real(name, value, finite=False, allowed="a number")
 
 
 def positive(name: str, value: object, *, why: str = "") -> float:
@@ -85,8 +235,10 @@ def positive(name: str, value: object, *, why: str = "") -> float:
 
     Raises
     ------
+    ParameterTypeError
+        As :func:`as_real`.
     ValueError
-        As :func:`as_real`, or ``"{name} must be a finite value > 0{why}, got {value!r}"``.
+        ``"{name} must be a finite value > 0{why}, got {value!r}"``.
     """
     v = as_real(name, value)
     if not (math.isfinite(v) and v > 0):
@@ -94,22 +246,55 @@ def positive(name: str, value: object, *, why: str = "") -> float:
     return v
 
 
+def _float(x: object) -> float:
+    try:
+        return float(x)  # type: ignore[arg-type]
+    except OverflowError:  # an integer beyond the float range
+        return math.inf if x > 0 else -math.inf  # type: ignore[operator]
+
+
 def _numeric_array(value: object) -> NDArray[np.float64] | None:
-    """``value`` as a float array if it is a number or a (nested) sequence or array of numbers,
-    else ``None``. Booleans are assumed already rejected."""
+    """``value`` as a float array if it is a number or a (nested) list, tuple or array of
+    numbers, else ``None`` (strings, bytes, sets, mappings, ``None``, ragged nesting).
+    Booleans are assumed already rejected; an integer too large for a float becomes ±inf."""
+    if isinstance(value, str | bytes | bytearray | memoryview):
+        return None
     try:
         arr = np.asarray(value)
-    except (TypeError, ValueError):  # ragged nesting
+    except (TypeError, ValueError, OverflowError):  # ragged nesting
         return None
     if arr.dtype.kind == "O":
-        if not all(is_real(v) for v in arr.flat):
+        flat = list(arr.flat)
+        if not all(is_real(v) for v in flat):
             return None
-    elif arr.dtype.kind not in "iuf":
+        return np.array([_float(v) for v in flat], dtype=np.float64).reshape(arr.shape)
+    if arr.dtype.kind not in "iuf":
         return None
     try:
         return arr.astype(np.float64)
-    except (TypeError, ValueError, OverflowError):
+    except (TypeError, ValueError, OverflowError):  # pragma: no cover - iuf always converts
         return None
+
+
+def number_array(name: str, value: object, *, message: str | None = None) -> NDArray[np.float64]:
+    """``value`` (a number, or a nested list, tuple or array of numbers) as a new float64 array.
+
+    Only the type is checked here: shape, finiteness and bounds are the caller's.
+
+    Raises
+    ------
+    ParameterTypeError
+        ``"{name} must be numbers, not booleans, got {value!r}"`` or
+        ``"{name} must be numbers, got {value!r}"`` (or ``message``).
+    """
+    if has_bool(value):
+        raise ParameterTypeError(
+            message or f"{_subject(name)}must be numbers, not booleans, got {value!r}"
+        )
+    arr = _numeric_array(value)
+    if arr is None:
+        raise ParameterTypeError(message or f"{_subject(name)}must be numbers, got {value!r}")
+    return arr
 
 
 def per_joint(
@@ -121,6 +306,7 @@ def per_joint(
     why: str = "",
     invalid: str | None = None,
     boolean: str | None = None,
+    not_finite: str | None = None,
     out_of_range: str | None = None,
 ) -> float | tuple[float, ...]:
     """Validate a per-joint value: one finite number, or a non-empty 1-D sequence of them.
@@ -144,6 +330,8 @@ def per_joint(
         fault, below.
     boolean : str, optional
         The whole message for a boolean anywhere in ``value``.
+    not_finite : str, optional
+        The whole message for a NaN or infinite entry (default ``invalid``, if given).
     out_of_range : str, optional
         The whole message for an entry below ``low``.
 
@@ -154,23 +342,26 @@ def per_joint(
 
     Raises
     ------
+    ParameterTypeError
+        For a value that is not a number or a sequence of numbers (a string, bytes, a set,
+        ``None``, a boolean anywhere): unless overridden, ``"{name} must be a number or one
+        number per joint, not a boolean, got {value!r}"`` or ``"... per joint, got {value!r}"``.
     ValueError
-        With, unless overridden, ``"{name} must be a number or one number per joint, not a
-        boolean, got {value!r}"``, ``"... per joint, got {value!r}"`` (not numbers),
+        For numbers of the wrong shape or value: unless overridden,
         ``"{name} must be a scalar or a 1-D vector (one per joint), got shape {shape}"``,
         ``"{name} must not be empty"``, ``"{name} must be finite, got {shown}"`` or
         ``"{name} must be > {low}{why}, got {shown}"`` (``>=`` with ``inclusive``), where
         ``shown`` is ``value`` with its entries as floats.
     """
     if has_bool(value):
-        raise ValueError(
+        raise ParameterTypeError(
             boolean
             or invalid
             or f"{name} must be a number or one number per joint, not a boolean, got {value!r}"
         )
     arr = _numeric_array(value)
     if arr is None:
-        raise ValueError(
+        raise ParameterTypeError(
             invalid or f"{name} must be a number or one number per joint, got {value!r}"
         )
     if arr.ndim > 1:
@@ -183,7 +374,7 @@ def per_joint(
     result: float | tuple[float, ...] = float(arr) if arr.ndim == 0 else tuple(arr.tolist())
     shown = list(result) if isinstance(result, tuple) and not isinstance(value, tuple) else result
     if not np.all(np.isfinite(arr)):
-        raise ValueError(invalid or f"{name} must be finite, got {shown!r}")
+        raise ValueError(not_finite or invalid or f"{name} must be finite, got {shown!r}")
     if low is not None and (np.any(arr < low) or (not inclusive and np.any(arr == low))):
         bound = f"{'>=' if inclusive else '>'} {low:g}"
         raise ValueError(out_of_range or f"{name} must be {bound}{why}, got {shown!r}")

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from slidingarm._validate import is_real, per_joint, plain
+from slidingarm._validate import per_joint, plain, real
 from slidingarm.models.planar import PlanarArm
 
 __all__ = [
@@ -66,10 +66,12 @@ class ConstantTorque:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "value", _per_joint("constant disturbance value", self.value))
-        if not is_real(self.t_start, finite=True):
-            raise ValueError(
-                f"constant disturbance t_start must be a finite time (s), got {self.t_start!r}"
-            )
+        t_start = real(
+            "constant disturbance t_start",
+            self.t_start,
+            message=f"constant disturbance t_start must be a finite time (s), got {self.t_start!r}",
+        )
+        object.__setattr__(self, "t_start", t_start)
 
     def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
         """Disturbance samples, shape (T, n)."""
@@ -92,14 +94,20 @@ class SinusoidalTorque:
         object.__setattr__(
             self, "amplitude", _per_joint("sinusoidal disturbance amplitude", self.amplitude)
         )
-        if not (is_real(self.frequency, finite=True) and self.frequency >= 0):
-            raise ValueError(
-                f"sinusoidal disturbance frequency must be finite and >= 0 Hz, got {self.frequency!r}"
-            )
-        if not is_real(self.phase, finite=True):
-            raise ValueError(
-                f"sinusoidal disturbance phase must be finite (rad), got {self.phase!r}"
-            )
+        frequency = real(
+            "sinusoidal disturbance frequency",
+            self.frequency,
+            low=0.0,
+            message="sinusoidal disturbance frequency must be finite and >= 0 Hz, "
+            f"got {self.frequency!r}",
+        )
+        phase = real(
+            "sinusoidal disturbance phase",
+            self.phase,
+            message=f"sinusoidal disturbance phase must be finite (rad), got {self.phase!r}",
+        )
+        object.__setattr__(self, "frequency", frequency)
+        object.__setattr__(self, "phase", phase)
 
     def torque(self, t: FloatArray, n: int, rng: np.random.Generator) -> FloatArray:
         """Disturbance samples, shape (T, n)."""
@@ -165,8 +173,13 @@ class ModelMismatch:
     length_error: float | tuple[float, ...] = 0.0
 
     def __post_init__(self) -> None:
-        if not (is_real(self.payload, finite=True) and self.payload >= 0):
-            raise ValueError(f"payload must be a finite mass >= 0 kg, got {self.payload!r}")
+        payload = real(
+            "payload",
+            self.payload,
+            low=0.0,
+            message=f"payload must be a finite mass >= 0 kg, got {self.payload!r}",
+        )
+        object.__setattr__(self, "payload", payload)
         why = " (a relative error; -1 would remove the link)"
         for name in ("mass_error", "length_error"):
             object.__setattr__(self, name, _per_joint(name, getattr(self, name), low=-1.0, why=why))

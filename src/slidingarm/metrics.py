@@ -43,21 +43,29 @@ __all__ = [
     "DEFAULT_CUTOFF_HZ",
     "DEFAULT_DELTA_E",
     "DEFAULT_DELTA_S",
+    "DEFAULT_LATE_FRACTION",
     "DEFAULT_WINDOW",
+    "LATE_COLUMNS",
     "METRIC_COLUMNS",
+    "alternation",
     "chattering",
     "control_effort",
     "final_error",
     "hf_power_share",
     "iae",
     "itae",
+    "late_metrics",
+    "late_start",
+    "max_step",
     "mse",
     "peak_torque",
     "reaching_time",
+    "rms",
     "rmse",
     "settling_time",
     "steady_state_error",
     "summary",
+    "terminal_gain",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -84,6 +92,10 @@ DEFAULT_WINDOW: float = 0.5
 #: 10^{-4}` s where sign switching puts its power.
 DEFAULT_CUTOFF_HZ: float = 50.0
 
+#: "After the transient" (:func:`late_start`): the last half of the run. The reaching phase and
+#: the convergence on the surface end well before the second half of the paper's 4.5 s run.
+DEFAULT_LATE_FRACTION: float = 0.5
+
 #: Columns of :func:`summary`, after ``joint`` (and ``run`` for a batch), in order.
 METRIC_COLUMNS: tuple[str, ...] = (
     "mse",
@@ -98,6 +110,15 @@ METRIC_COLUMNS: tuple[str, ...] = (
     "peak_torque",
     "chattering",
     "hf_power_share",
+)
+
+#: Names of :func:`late_metrics`, in order.
+LATE_COLUMNS: tuple[str, ...] = (
+    "chattering_late",
+    "max_step_late",
+    "alternation_late",
+    "terminal_gain_late",
+    "s_rms_late",
 )
 
 #: Relative size below which a detrended torque counts as constant in :func:`hf_power_share`.
@@ -552,6 +573,216 @@ def hf_power_share(
     flat = rms <= _FLAT_RTOL * scale
     share = np.where(flat, 0.0, high / np.where(flat, 1.0, total))
     return np.asarray(np.clip(share, 0.0, 1.0), dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------- windows
+def late_start(t: ArrayLike, *, fraction: float = DEFAULT_LATE_FRACTION) -> int:
+    r"""First sample of the last ``fraction`` of a run ("after the transient").
+
+    .. math:: k_0 = \min\big(\min\{k : t_k \ge t_{T-1} - f\,(t_{T-1} - t_0) - 10^{-9}(t_{T-1} - t_0)\},
+              \; T - 3\big)
+
+    The small tolerance keeps a window boundary that falls on a sample, up to rounding, inside
+    the window; the cap leaves at least two applied torque steps.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Strictly increasing sample times (s), :math:`T \ge 3`.
+    fraction : float, default :data:`DEFAULT_LATE_FRACTION` = 0.5
+        :math:`f \in (0, 1]`.
+
+    Returns
+    -------
+    int
+        :math:`k_0`.
+    """
+    f = _fraction(fraction)
+    tt = _time(t)
+    if tt.shape[0] < 3:
+        raise ValueError(f"t must have at least 3 samples for a window, got {tt.shape[0]}")
+    tol = 1e-9 * (tt[-1] - tt[0])
+    k0 = int(np.searchsorted(tt, tt[-1] - f * (tt[-1] - tt[0]) - tol, side="left"))
+    return min(k0, tt.shape[0] - 3)
+
+
+def _fraction(fraction: float) -> float:
+    if not is_real(fraction) or not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must be in (0, 1], got {fraction!r}")
+    return float(fraction)
+
+
+def _steps(tau: ArrayLike) -> FloatArray:
+    """Steps :math:`\\Delta_k = \\tau_{k+1} - \\tau_k` of the applied torque, (..., T-2, n)."""
+    arr = _signal("tau", tau)
+    return np.diff(arr[..., :-1, :], axis=-2)
+
+
+def max_step(tau: ArrayLike) -> FloatArray:
+    r"""Largest single step of the applied torque.
+
+    .. math:: \max_{0 \le k \le T-3} |\tau_{k+1,i} - \tau_{k,i}|
+
+    (the last row, never applied, does not count).
+
+    Parameters
+    ----------
+    tau : array_like, shape (..., T, n)
+        Torque (N m), :math:`T \ge 3`.
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        N m.
+    """
+    steps = _steps(tau)
+    if steps.shape[-2] == 0:
+        raise ValueError("tau must have at least 3 samples for a step")
+    return np.asarray(np.max(np.abs(steps), axis=-2))
+
+
+def alternation(tau: ArrayLike) -> FloatArray:
+    r"""Share of consecutive steps of the applied torque that reverse.
+
+    With :math:`\Delta_k = \tau_{k+1} - \tau_k`, :math:`0 \le k \le T-3`,
+
+    .. math:: a_i = \frac{\#\{k \ge 1 : \Delta_{k,i}\,\Delta_{k-1,i} < 0\}}{T - 3}
+
+    — 1 for a torque that flips every sample, about 0 for a smooth torque, 2/3 for white noise;
+    0 when there are fewer than two steps.
+
+    Parameters
+    ----------
+    tau : array_like, shape (..., T, n)
+        Torque (N m).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Dimensionless, in [0, 1].
+    """
+    steps = _steps(tau)
+    reversing = steps[..., 1:, :] * steps[..., :-1, :] < 0
+    if reversing.shape[-2] == 0:
+        return np.zeros(steps.shape[:-2] + steps.shape[-1:])
+    return np.asarray(np.mean(reversing, axis=-2))
+
+
+def terminal_gain(
+    e: ArrayLike, *, beta: ArrayLike, gamma: float, eps_e: float, dt: float
+) -> FloatArray:
+    r"""Median gain per sample of a terminal surface term :math:`\beta\,\mathrm{sig}(e)^\gamma`.
+
+    .. math:: g_i = \mathrm{median}_k\; \beta_i\gamma\max(|e_{k,i}|, \varepsilon_e)^{\gamma-1}\,T_s
+
+    the factor of :math:`\dot e` in :math:`\nu` (SPEC §3) times the sample time :math:`T_s`;
+    above 1 the sampled loop overshoots at every sample.
+
+    Parameters
+    ----------
+    e : array_like, shape (..., T, n)
+        The error the controller sees (rad), e.g. :math:`\tilde q - q_d`.
+    beta : float or array_like, shape (n,)
+        Terminal gain :math:`\beta`.
+    gamma : float
+        Exponent :math:`\gamma`.
+    eps_e : float
+        Singularity guard :math:`\varepsilon_e` (rad).
+    dt : float
+        Sample time :math:`T_s` (s).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Dimensionless.
+    """
+    err = np.abs(_signal("e", e))
+    b = np.asarray(beta, dtype=np.float64)
+    gain = b * gamma * np.maximum(err, eps_e) ** (gamma - 1.0) * dt
+    return np.asarray(np.median(gain, axis=-2))
+
+
+def rms(x: ArrayLike) -> FloatArray:
+    r"""Root mean square of a signal over its samples.
+
+    .. math:: \mathrm{RMS}_i = \sqrt{\frac{1}{T} \sum_{k=0}^{T-1} x_{k,i}^2}
+
+    Parameters
+    ----------
+    x : array_like, shape (..., T, n)
+        Any signal, e.g. the sliding variable (rad/s).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        The unit of ``x``.
+    """
+    arr = _signal("x", x)
+    return np.asarray(np.sqrt(np.mean(arr * arr, axis=-2)))
+
+
+def late_metrics(
+    t: ArrayLike,
+    tau: ArrayLike,
+    s: ArrayLike,
+    e_seen: ArrayLike,
+    *,
+    dt: float,
+    terminal: tuple[ArrayLike, float, float] | None = None,
+    fraction: float = DEFAULT_LATE_FRACTION,
+) -> dict[str, FloatArray]:
+    r"""Torque chattering and sliding variable after the transient, per joint.
+
+    The window is the samples :math:`k \ge k_0` of :func:`late_start`. With the applied torque
+    :math:`\tau_k`, :math:`k_0 \le k \le T-2`:
+
+    - ``chattering_late``: :func:`chattering` on the window,
+      :math:`\sum_k |\Delta_k| / (t_{T-1} - t_{k_0})` (N·m/s);
+    - ``max_step_late``: :func:`max_step` on the window (N·m);
+    - ``alternation_late``: :func:`alternation` on the window;
+    - ``terminal_gain_late``: :func:`terminal_gain` of ``e_seen`` on the window with
+      ``terminal = (beta, gamma, eps_e)``; NaN without a terminal term (``terminal=None``);
+    - ``s_rms_late``: :func:`rms` of ``s`` on the window (rad/s).
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Sample times (s).
+    tau, s, e_seen : array_like, shape (T, n)
+        Torque (N m), sliding variable and the error the controller sees (rad).
+    dt : float
+        Sample time (s) of :func:`terminal_gain`.
+    terminal : (beta, gamma, eps_e), optional
+        The controller's terminal term, if it has one.
+    fraction : float, default :data:`DEFAULT_LATE_FRACTION` = 0.5
+        Share of the run the window covers, in (0, 1].
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        One array per name of :data:`LATE_COLUMNS` (NaN for a run of fewer than 3 samples).
+    """
+    _fraction(fraction)
+    tt = _time(t)
+    torque = _signal("tau", tau, tt)
+    n = torque.shape[-1]
+    if tt.shape[0] < 3:
+        return {name: np.full(n, math.nan) for name in LATE_COLUMNS}
+    k0 = late_start(tt, fraction=fraction)
+    window = torque[k0:]
+    out: dict[str, FloatArray] = {
+        "chattering_late": np.asarray(chattering(tt[k0:], window), dtype=float),
+        "max_step_late": max_step(window),
+        "alternation_late": alternation(window),
+    }
+    if terminal is None:
+        out["terminal_gain_late"] = np.full(n, math.nan)
+    else:
+        beta, gamma, eps_e = terminal
+        seen = _signal("e_seen", e_seen, tt)[k0:]
+        out["terminal_gain_late"] = terminal_gain(seen, beta=beta, gamma=gamma, eps_e=eps_e, dt=dt)
+    out["s_rms_late"] = rms(_signal("s", s, tt)[k0:])
+    return out
 
 
 # ---------------------------------------------------------------------------- summary

@@ -31,12 +31,15 @@ import abc
 import csv
 import json
 import math
+import pickle
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from slidingarm._validate import ParameterTypeError, integer, number_array, real
 
 __all__ = [
     "PAPER_DT",
@@ -84,9 +87,7 @@ _TABLE_RANGE_RTOL = 1e-12
 
 
 def _finite_scalar(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
-    x = float(value)
+    x = real(name, value, finite=False, message=f"{name} must be a real number, got {value!r}")
     if not math.isfinite(x):
         raise ValueError(f"{name} must be finite, got {x!r}")
     return x
@@ -94,10 +95,7 @@ def _finite_scalar(name: str, value: Any) -> float:
 
 def _joint_vector(name: str, value: ArrayLike, n: int | None = None) -> FloatArray:
     """A finite (n,) float64 vector, read-only; a scalar is one joint."""
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from exc
+    arr = number_array(name, value, message=f"{name} must be a sequence of numbers, got {value!r}")
     arr = np.atleast_1d(arr)
     if arr.ndim != 1:
         raise ValueError(
@@ -126,13 +124,10 @@ def _per_joint(name: str, value: ArrayLike, n: int) -> FloatArray:
 def _as_times(t: ArrayLike) -> FloatArray:
     """Validate a sample-time array: real, one-dimensional (T,), finite."""
     if np.iscomplexobj(t):
-        raise ValueError("t must be real sample times, got complex values")
-    try:
-        arr = np.asarray(t, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(
-            f"t must be an array of sample times (T,), got {type(t).__name__}"
-        ) from exc
+        raise ParameterTypeError("t must be real sample times, got complex values")
+    arr = number_array(
+        "t", t, message=f"t must be an array of sample times (T,), got {type(t).__name__}"
+    )
     if arr.ndim != 1:
         hint = "; to evaluate one time call the reference, ref(t)" if arr.ndim == 0 else ""
         raise ValueError(f"t must be one-dimensional, shape (T,), got shape {arr.shape}{hint}")
@@ -215,10 +210,8 @@ class Reference(abc.ABC):
             raise ValueError(
                 f"ref(t) takes one time, got shape {np.shape(t)}; use ref.evaluate(t) for an array"
             )
-        try:
-            t_arr = np.array([t], dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"t must be a real number (s), got {t!r}") from exc
+        x = real("t", t, finite=False, message=f"t must be a real number (s), got {t!r}")
+        t_arr = np.array([x], dtype=np.float64)
         q, qd, qdd = self.evaluate(t_arr)
         return q[0].copy(), qd[0].copy(), qdd[0].copy()
 
@@ -510,14 +503,13 @@ class TableReference(Reference):
     __slots__ = ("_q", "_spline", "_splines", "_t")
 
     def __init__(self, t: ArrayLike, q: ArrayLike, *, spline: SplineKind = "quintic") -> None:
+        if not isinstance(spline, str):
+            raise ParameterTypeError(f"spline must be 'quintic' or 'cubic', got {spline!r}")
         if spline not in _SPLINE_ORDER:
             raise ValueError(f"spline must be 'quintic' or 'cubic', got {spline!r}")
         k = _SPLINE_ORDER[spline]
         times = _as_table_times(t)
-        try:
-            qa = np.array(q, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError("q must be an array of numbers, shape (T_s, n)") from exc
+        qa = number_array("q", q, message="q must be an array of numbers, shape (T_s, n)")
         if qa.ndim == 1:
             qa = qa[:, None]
         if qa.ndim != 2 or qa.shape[0] != times.shape[0] or qa.shape[1] == 0:
@@ -693,10 +685,7 @@ def _is_number(text: str) -> bool:
 
 
 def _as_table_times(t: ArrayLike) -> FloatArray:
-    try:
-        arr = np.array(t, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError("t must be an array of sample times (T_s,)") from exc
+    arr = number_array("t", t, message="t must be an array of sample times (T_s,)")
     if arr.ndim != 1:
         raise ValueError(f"t must be one-dimensional, shape (T_s,), got shape {arr.shape}")
     bad = ~np.isfinite(arr)
@@ -754,12 +743,13 @@ class CallableReference(Reference):
                     "numerically)"
                 )
             if not callable(f):
-                raise ValueError(f"CallableReference: {name} must be callable, got {f!r}")
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ValueError(f"n must be an integer >= 1 (number of joints), got {n!r}")
+                raise ParameterTypeError(f"CallableReference: {name} must be callable, got {f!r}")
+        count = integer(
+            "n", n, low=1, message=f"n must be an integer >= 1 (number of joints), got {n!r}"
+        )
         assert qd is not None and qdd is not None
         self._funcs: tuple[Callable[[FloatArray], ArrayLike], ...] = (q, qd, qdd)
-        self._n = int(n)
+        self._n = count
 
     @property
     def n(self) -> int:
@@ -822,6 +812,32 @@ class CallableReference(Reference):
         d = self.to_dict()
         return f"CallableReference(q={d['q']}, qd={d['qd']}, qdd={d['qdd']}, n={self._n})"
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle by the functions themselves: possible when each of them pickles (a
+        module-level function, a :func:`functools.partial` of one, …), not for a lambda or a
+        nested function, for which a :class:`TypeError` says so."""
+        for name, f in zip(("q", "qd", "qdd"), self._funcs, strict=True):
+            try:
+                pickle.dumps(f)
+            except Exception as exc:
+                raise TypeError(
+                    f"CallableReference cannot be pickled: its {name} function {f!r} does not "
+                    f"pickle ({type(exc).__name__}: {exc}); give module-level functions, or use "
+                    "a reference that always pickles (TableReference, SineReference, "
+                    "QuinticReference, PaperReference)"
+                ) from exc
+        return (_callable_reference, (*self._funcs, self._n))
+
+
+def _callable_reference(
+    q: Callable[[FloatArray], ArrayLike],
+    qd: Callable[[FloatArray], ArrayLike],
+    qdd: Callable[[FloatArray], ArrayLike],
+    n: int,
+) -> CallableReference:
+    """Rebuild a pickled :class:`CallableReference`."""
+    return CallableReference(q, qd, qdd, n=n)
+
 
 # --------------------------------------------------------------------------------------------
 # factory
@@ -862,6 +878,10 @@ def reference_from_dict(d: Mapping[str, Any], *, base_dir: str | Path | None = N
             f"reference needs a 'kind' key, one of {list(_KEYS)}; got keys {sorted(d)}"
         )
     kind = d["kind"]
+    if not isinstance(kind, str):
+        raise ParameterTypeError(
+            f"reference kind must be a string, one of {list(_KEYS)}; got {kind!r}"
+        )
     if kind == "callable":
         raise ValueError(
             "a CallableReference cannot be rebuilt from a dict (its functions are Python code); "

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from slidingarm import _engine as E
-from slidingarm._validate import is_integer, is_real, per_joint, plain, positive
+from slidingarm._validate import ParameterTypeError, integer, per_joint, plain, positive, real
 
 __all__ = [
     "VELOCITY_ESTIMATORS",
@@ -219,21 +219,39 @@ class SensorFault:
     probability: float = 1.0
 
     def __post_init__(self) -> None:
+        if not isinstance(self.kind, str):
+            raise ParameterTypeError(
+                f"fault kind must be 'bias', 'stuck' or 'dropout', got {self.kind!r}"
+            )
         if self.kind not in ("bias", "stuck", "dropout"):
             raise ValueError(f"fault kind must be 'bias', 'stuck' or 'dropout', got {self.kind!r}")
-        if not is_integer(self.joint) or self.joint < 1:
-            raise ValueError(f"fault joint must be a joint number >= 1, got {self.joint!r}")
-        if not is_real(self.t_start, finite=True) or self.t_start < 0:
-            raise ValueError(f"fault t_start must be a finite time >= 0 s, got {self.t_start!r}")
-        if not is_real(self.value):
-            raise ValueError(f"fault value must be a number (rad), got {self.value!r}")
-        if not math.isfinite(self.value):
+        joint = integer(
+            "fault joint",
+            self.joint,
+            low=1,
+            message=f"fault joint must be a joint number >= 1, got {self.joint!r}",
+        )
+        t_start = real(
+            "fault t_start",
+            self.t_start,
+            low=0.0,
+            message=f"fault t_start must be a finite time >= 0 s, got {self.t_start!r}",
+        )
+        value = real(
+            "fault value",
+            self.value,
+            finite=False,
+            message=f"fault value must be a number (rad), got {self.value!r}",
+        )
+        if not math.isfinite(value):
             raise ValueError(f"fault value must be finite, got {self.value!r}")
-        if not is_real(self.probability) or not 0.0 <= self.probability <= 1.0:
-            raise ValueError(f"fault probability must lie in [0, 1], got {self.probability!r}")
-        t_start = float(self.t_start)
-        value = float(self.value)
-        probability = float(self.probability)
+        probability = real(
+            "fault probability",
+            self.probability,
+            low=0.0,
+            high=1.0,
+            message=f"fault probability must lie in [0, 1], got {self.probability!r}",
+        )
         if self.kind != "bias" and value != 0.0:
             why = (
                 "a stuck sensor freezes at its last reading before t_start"
@@ -249,7 +267,7 @@ class SensorFault:
                 f"fault probability applies to kind='dropout' only, got "
                 f"probability={self.probability!r} with kind={self.kind!r}"
             )
-        object.__setattr__(self, "joint", int(self.joint))
+        object.__setattr__(self, "joint", joint)
         object.__setattr__(self, "t_start", t_start)
         object.__setattr__(self, "value", value)
         object.__setattr__(self, "probability", probability)
@@ -272,12 +290,23 @@ class Sensor:
     faults: tuple[SensorFault, ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "faults", tuple(self.faults))
+        if self.noise is not None and not isinstance(self.noise, GaussianNoise):
+            raise ParameterTypeError(f"noise must be a GaussianNoise or None, got {self.noise!r}")
         if not isinstance(
             self.velocity,
             TrueVelocity | BackwardDifference | DirtyDerivative | LevantDifferentiator,
         ):
-            raise ValueError(f"velocity must be a velocity estimator, got {self.velocity!r}")
+            raise ParameterTypeError(
+                f"velocity must be a velocity estimator, got {self.velocity!r}"
+            )
+        faults = self.faults
+        if not isinstance(faults, list | tuple) or not all(
+            isinstance(f, SensorFault) for f in faults
+        ):
+            raise ParameterTypeError(
+                f"faults must be a list or tuple of SensorFault, got {faults!r}"
+            )
+        object.__setattr__(self, "faults", tuple(faults))
 
     @property
     def random(self) -> bool:

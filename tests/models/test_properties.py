@@ -144,20 +144,6 @@ def test_bias_is_coriolis_plus_gravity(case: tuple) -> None:
     )
 
 
-@FAST
-@given(arm_and_state(n=3))
-def test_craig_split_reproduces_velocity_torque(case: tuple) -> None:
-    """:math:`B(q)[\\dot q\\dot q] + C_2(q)[\\dot q^2] = C(q,\\dot q)\\dot q`; diag(C2) = 0."""
-    arm, q, qd = case
-    bmat, c2 = arm.craig_split(q)
-    pairs = np.array([qd[0] * qd[1], qd[0] * qd[2], qd[1] * qd[2]])
-    np.testing.assert_allclose(
-        bmat @ pairs + c2 @ qd**2, arm.coriolis(q, qd) @ qd, atol=1e-13 * _torque_scale(arm, qd)
-    )
-    # Christoffel symbol c_iii = dM_ii/dq_i / 2 vanishes: M_ii does not depend on q_i
-    np.testing.assert_allclose(np.diag(c2), 0.0, atol=1e-14 * _size(arm))
-
-
 # ---------------------------------------------------------------------- forward/inverse
 def _inverse_norm(arm: PlanarArm, q: np.ndarray) -> float:
     return 1.0 / float(np.linalg.eigvalsh(arm.mass_matrix(q)).min())
@@ -484,17 +470,3 @@ def test_batch_shapes_and_values_match_single_states(
     )
     # lists are accepted like arrays
     np.testing.assert_array_equal(arm.mass_matrix(q.tolist()), arm.mass_matrix(q))
-
-
-@SLOW
-@given(arm_and_state(n=3), st.integers(1, 5), st.data())
-def test_craig_split_batch_shapes(case: tuple, size: int, data: st.DataObject) -> None:
-    arm, _, _ = case
-    q = data.draw(hnp.arrays(np.float64, (size, 3), elements=st.floats(-7.0, 7.0)))
-    bmat, c2 = arm.craig_split(q)
-    assert bmat.shape == c2.shape == (size, 3, 3)
-    for b in range(size):
-        one_b, one_c2 = arm.craig_split(q[b])
-        assert one_b.shape == one_c2.shape == (3, 3)
-        np.testing.assert_allclose(bmat[b], one_b, rtol=1e-14, atol=1e-14 * _size(arm))
-        np.testing.assert_allclose(c2[b], one_c2, rtol=1e-14, atol=1e-14 * _size(arm))

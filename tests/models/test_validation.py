@@ -161,7 +161,6 @@ def test_wrong_state_shape(state: np.ndarray) -> None:
         ("joint_positions", ["q"]),
         ("com_positions", ["q"]),
         ("tip_position", ["q"]),
-        ("craig_split", ["q"]),
         ("coriolis", ["q", "qd"]),
         ("bias", ["q", "qd"]),
         ("kinetic_energy", ["q", "qd"]),
@@ -201,15 +200,6 @@ def test_batch_size_mismatch() -> None:
 def test_single_state_broadcasts_against_any_batch() -> None:
     assert ARM.bias(np.zeros((4, 3)), np.zeros(3)).shape == (4, 3)
     assert ARM.inverse_dynamics(np.zeros(3), np.zeros((2, 3)), np.zeros(3)).shape == (2, 3)
-
-
-@pytest.mark.parametrize("n", [1, 2, 4, 5])
-def test_craig_split_needs_three_joints(n: int) -> None:
-    arm = PlanarArm(np.ones(n), np.ones(n))
-    with pytest.raises(
-        ValueError, match=_m(f"craig_split is defined for a 3-joint arm; this arm has {n} joints")
-    ):
-        arm.craig_split(np.zeros(n))
 
 
 # ---------------------------------------------------------------------- derived arms

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from slidingarm._validate import as_real, is_integer, per_joint, positive
+from slidingarm._validate import ParameterTypeError, as_real, is_integer, per_joint, positive
 from slidingarm.control import _kernels as CK
 
 __all__ = [
@@ -50,8 +50,9 @@ DEFAULT_EPS_E = 1e-9
 def gain(name: str, value: ArrayLike, *, allow_zero: bool = False) -> FloatArray:
     """Validate a gain: a finite scalar or 1-D vector, > 0 (or >= 0 with ``allow_zero``).
 
-    Booleans (``bool``, ``np.bool_``, boolean arrays) and strings are rejected (``k=True`` is a
-    mistake, not a gain of 1), as the configuration files do.
+    Booleans (``bool``, ``np.bool_``, boolean arrays), strings, bytes and sets are rejected
+    with a :class:`~slidingarm._validate.ParameterTypeError` (``k=True`` is a mistake, not a
+    gain of 1), as the configuration files do (:func:`slidingarm._validate.per_joint`).
 
     Returns
     -------
@@ -86,7 +87,10 @@ def exponent(
     if gamma is None:
         if p is None or q is None:
             raise ValueError(f"{name} is required (or both p and q)")
-        if not is_integer(p) or not is_integer(q) or p <= 0 or q <= 0 or p % 2 == 0 or q % 2 == 0:
+        if not is_integer(p) or not is_integer(q):
+            raise ParameterTypeError(f"p and q must be positive odd integers, got p={p!r}, q={q!r}")
+        assert isinstance(p, int | np.integer) and isinstance(q, int | np.integer)
+        if p <= 0 or q <= 0 or p % 2 == 0 or q % 2 == 0:
             raise ValueError(f"p and q must be positive odd integers, got p={p!r}, q={q!r}")
         ratio = Fraction(int(q), int(p)) if high <= 1.0 else Fraction(int(p), int(q))
         value = float(ratio)

@@ -338,43 +338,6 @@ class PlanarArm(ArmModel):
         """Position of the end of the last link (m), shape (2,) or (B, 2)."""
         return self.joint_positions(q)[..., -1, :]
 
-    # ------------------------------------------------------------------ the paper's split
-    def craig_split(self, q: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """The paper's (Craig's) split of the velocity terms for a 3-joint arm.
-
-        .. math:: C(q,\\dot q)\\dot q = B(q)[\\dot q\\dot q] + C_2(q)[\\dot q^2],\\quad
-                  [\\dot q\\dot q] = (\\dot q_1\\dot q_2, \\dot q_1\\dot q_3, \\dot q_2\\dot q_3),
-                  [\\dot q^2] = (\\dot q_1^2, \\dot q_2^2, \\dot q_3^2)
-
-        The velocity term is a quadratic form in :math:`\\dot q`, so both matrices follow exactly
-        by polarisation: column ``i`` of :math:`C_2` is :math:`c(e_i)` and the column of
-        :math:`B` for the pair ``(i, j)`` is :math:`c(e_i + e_j) - c(e_i) - c(e_j)`, where
-        :math:`c(v) = C(q, v)v`.
-
-        Returns
-        -------
-        B, C2 : ndarray, shape (3, 3) or (B, 3, 3) each
-        """
-        if self.n != 3:
-            raise ValueError(
-                f"craig_split is defined for a 3-joint arm; this arm has {self.n} joints"
-            )
-        (qa,), single = self._states(q=q)
-        nb = qa.shape[0]
-        eye = np.eye(3)
-
-        def vel_term(v: FloatArray) -> FloatArray:
-            vb = np.ascontiguousarray(np.broadcast_to(v, (nb, 3)))
-            cm = self.coriolis(qa, vb)
-            return np.einsum("bij,bj->bi", cm, vb)
-
-        sq = [vel_term(eye[i]) for i in range(3)]
-        c2 = np.stack(sq, axis=-1)
-        pairs = [(0, 1), (0, 2), (1, 2)]
-        bcols = [vel_term(eye[i] + eye[j]) - sq[i] - sq[j] for i, j in pairs]
-        bmat = np.stack(bcols, axis=-1)
-        return (bmat[0], c2[0]) if single else (bmat, c2)
-
     # ------------------------------------------------------------------ engine models
     def to_urdf(self, name: str = "planar_arm") -> str:
         """URDF text of the same arm, for Pinocchio and other URDF tools.

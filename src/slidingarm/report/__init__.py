@@ -1,44 +1,52 @@
-"""The study's report: ``report.md`` (GitHub-flavoured markdown) and a self-contained
-``report.html``, written from a :class:`ReportContext` by :func:`write_report`.
+"""Reports as documents: blocks of markdown and figures, rendered to ``report.md``
+(GitHub-flavoured markdown) and a self-contained ``report.html``.
 
-The report only formats what the study computed: the MSE beside the paper's (beside the sign
-scenario only, the case of the paper's MSE table), the gains and noise with their reasons, the
-checks, finite-time convergence, the sign/tanh chattering contrast over the whole run and after the
-transient, the paper's errata and their measured cost, the gain grid, every metric (with the
-thresholds of :mod:`slidingarm.metrics`) and every figure. Every number in its prose comes from
-those tables or from the library's constants.
+This package knows nothing about any particular study: it holds the blocks
+(:class:`FigureBlock`, text), number formatting and markdown tables (:func:`format_value`,
+:func:`markdown_table`, :func:`frame_table`), the two renderers and :func:`write_blocks`. The
+paper's report, its content and its constants live in :mod:`slidingarm.study.paper_report`.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 from slidingarm._io import atomic_write_text
-from slidingarm.report._build import PAPER_FIGURES, build_blocks
-from slidingarm.report._context import ReportContext, ScenarioKind
-from slidingarm.report._format import format_value
+from slidingarm.report._blocks import Block, FigureBlock
+from slidingarm.report._format import format_value, frame_table, markdown_table
 from slidingarm.report._html import render_html, render_markdown
 
-__all__ = ["PAPER_FIGURES", "ReportContext", "ScenarioKind", "format_value", "write_report"]
+__all__ = [
+    "Block",
+    "FigureBlock",
+    "format_value",
+    "frame_table",
+    "markdown_table",
+    "render_html",
+    "render_markdown",
+    "write_blocks",
+]
 
 
-def write_report(out_dir: str | os.PathLike[str], ctx: ReportContext) -> tuple[Path, Path]:
-    """Write ``out_dir/report.md`` and ``out_dir/report.html`` from ``ctx``.
+def write_blocks(
+    out_dir: str | os.PathLike[str], title: str, blocks: Sequence[Block]
+) -> tuple[Path, Path]:
+    """Write ``out_dir/report.md`` and ``out_dir/report.html`` from ``blocks``.
 
-    The markdown links each figure's PNG by its path relative to ``out_dir`` (as
-    ``ctx.figures`` gives it); the HTML embeds the PNGs as base64 ``data:`` URIs and its CSS
+    The markdown links each figure's PNG by its path relative to ``out_dir``
+    (:attr:`FigureBlock.rel`); the HTML embeds the PNGs as base64 ``data:`` URIs and its CSS
     inline, so it opens offline and can be mailed alone. Both files are written atomically
     (temporary file, then :func:`os.replace`).
 
     Raises
     ------
     FileNotFoundError
-        If a figure of ``ctx.figures`` does not exist under ``out_dir``.
+        If the PNG of a :class:`FigureBlock` does not exist.
     """
     out = Path(out_dir)
-    title, blocks = build_blocks(ctx, out)
-    missing = [str(b.path) for b in blocks if hasattr(b, "path") and not Path(b.path).is_file()]
+    missing = [str(b.path) for b in blocks if isinstance(b, FigureBlock) and not b.path.is_file()]
     if missing:
         raise FileNotFoundError(
             f"report figures not found (paths in ctx.figures are relative to {out}): {missing}"

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from markdown_it import MarkdownIt
 
-from slidingarm.report._build import Block, FigureBlock
+from slidingarm.report._blocks import Block, FigureBlock
 
 __all__ = ["render_html", "render_markdown"]
 

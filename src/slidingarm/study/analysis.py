@@ -15,6 +15,7 @@ from typing import Any, Literal, overload
 import numpy as np
 import pandas as pd
 
+from slidingarm import metrics
 from slidingarm.config import ControllerSpec, Scenario, Setup
 from slidingarm.control.controllers import FTSMC, PDSMC, TSMC, SlidingModeController
 from slidingarm.control.surfaces import (
@@ -22,11 +23,11 @@ from slidingarm.control.surfaces import (
     ftsm_convergence_time,
     tsm_convergence_time,
 )
-from slidingarm.metrics import chattering as metric_chattering
+from slidingarm.metrics import DEFAULT_LATE_FRACTION, LATE_COLUMNS, summary
 from slidingarm.metrics import mse as metric_mse
-from slidingarm.metrics import summary
 from slidingarm.results import SimResult
 from slidingarm.simulate import SimulationError, simulate, simulate_batch
+from slidingarm.study.paper import PAPER_MSE, PAPER_MSE_SWITCHING, RANKING
 
 __all__ = [
     "ALTERNATING",
@@ -55,36 +56,16 @@ __all__ = [
     "simulate_setup",
 ]
 
-#: The paper's MSE table (SPEC §7), by controller. It belongs to the paper's sign-function case
-#: (its section "Fast terminal sliding mode control with sign function", after Figs. 3-9):
-#: :data:`PAPER_MSE_SWITCHING`.
-PAPER_MSE: dict[str, float] = {"ftsmc": 0.1331, "tsmc": 0.1976, "pdsmc": 0.4698}
-
-#: The switching function of the paper's case whose MSE table :data:`PAPER_MSE` is.
-PAPER_MSE_SWITCHING: str = "sign"
-
 #: "After the transient": the last ``LATE_FRACTION`` of each run, the samples with
-#: :math:`t_k \ge t_{T-1} - f\,(t_{T-1} - t_0)`. The reaching phase and the convergence on the
-#: surface (the convergence table) end well before the second half of the paper's 4.5 s run.
-LATE_FRACTION: float = 0.5
-
-#: Columns :func:`metrics_table` adds after :data:`slidingarm.metrics.METRIC_COLUMNS`, from
-#: :func:`late_metrics`.
-LATE_COLUMNS: tuple[str, ...] = (
-    "chattering_late",
-    "max_step_late",
-    "alternation_late",
-    "terminal_gain_late",
-    "s_rms_late",
-)
+#: :math:`t_k \ge t_{T-1} - f\,(t_{T-1} - t_0)` (:func:`slidingarm.metrics.late_start`). The
+#: reaching phase and the convergence on the surface (the convergence table) end well before
+#: the second half of the paper's 4.5 s run.
+LATE_FRACTION: float = DEFAULT_LATE_FRACTION
 
 #: A torque whose share of reversing steps (``alternation_late``) is at least this alternates at
 #: the sample rate: the share is 1 for a torque that flips every sample, about 0 for a smooth one
 #: and 2/3 for white noise.
 ALTERNATING: float = 0.5
-
-#: The paper's ranking, best first.
-RANKING: tuple[str, ...] = ("ftsmc", "tsmc", "pdsmc")
 
 #: Error band |e| < delta (rad) at which the convergence time is measured, by switching. Sign
 #: switching leaves a ripple of a few 1e-5 rad (s chatters in a band k·Ts wide), so its error
@@ -250,61 +231,26 @@ def _terminal_gain_params(result: SimResult) -> tuple[np.ndarray, float, float] 
 
 
 def late_metrics(result: SimResult, *, fraction: float = LATE_FRACTION) -> dict[str, np.ndarray]:
-    r"""Torque chattering and sliding variable after the transient, per joint.
-
-    The window is the last ``fraction`` of the run: the samples :math:`k \ge k_0`, :math:`k_0`
-    the first with :math:`t_k \ge t_{T-1} - f\,(t_{T-1} - t_0)`. With the applied torque
-    :math:`\tau_k`, :math:`k_0 \le k \le T-2` (the last row is never applied, as in
-    :mod:`slidingarm.metrics`), its steps :math:`\Delta_k = \tau_{k+1} - \tau_k` and the error
-    the controller sees :math:`\tilde e = \tilde q - q_d`:
-
-    - ``chattering_late``: :func:`slidingarm.metrics.chattering` on the window,
-      :math:`\sum_k |\Delta_k| / (t_{T-1} - t_{k_0})` (N·m/s);
-    - ``max_step_late``: the largest single step :math:`\max_k |\Delta_k|` (N·m);
-    - ``alternation_late``: the share of consecutive steps that reverse,
-      :math:`\#\{k : \Delta_k \Delta_{k-1} < 0\} / \#\{k\}` — 1 for a torque that flips every
-      sample, about 0 for a smooth torque, 2/3 for white noise;
-    - ``terminal_gain_late``: the median over the window of the terminal term's gain per
-      sample, :math:`\beta\gamma\max(|\tilde e_k|, \varepsilon_e)^{\gamma-1}\,T_s` (the factor
-      of :math:`\dot e` in :math:`\nu`, SPEC §3, times the sample time); above 1 the sampled
-      loop overshoots at every sample. NaN for a controller without a terminal term;
-    - ``s_rms_late``: the RMS of the sliding variable,
-      :math:`\sqrt{\mathrm{mean}_{k \ge k_0}\, s_k^2}` (rad/s).
+    r"""Torque chattering and sliding variable of a run after the transient, per joint:
+    :func:`slidingarm.metrics.late_metrics` of its torque, sliding variable and the error the
+    controller sees :math:`\tilde e = \tilde q - q_d`, with the terminal term of its controller
+    (``beta``, ``gamma``, ``eps_e`` of ``result.params``; none for PDSMC and NTSMC).
 
     Returns
     -------
     dict of str to ndarray, shape (n,)
-        One array per name of :data:`LATE_COLUMNS` (NaN for a run of fewer than 3 samples).
+        One array per name of :data:`LATE_COLUMNS` (:data:`slidingarm.metrics.LATE_COLUMNS`;
+        NaN for a run of fewer than 3 samples).
     """
-    if not 0.0 < fraction <= 1.0:
-        raise ValueError(f"fraction must be in (0, 1], got {fraction!r}")
-    t = np.asarray(result.t, dtype=float)
-    if t.shape[0] < 3:
-        return {name: np.full(result.n, math.nan) for name in LATE_COLUMNS}
-    tol = 1e-9 * (t[-1] - t[0])
-    k0 = int(np.searchsorted(t, t[-1] - fraction * (t[-1] - t[0]) - tol, side="left"))
-    k0 = min(k0, t.shape[0] - 3)  # at least two applied steps
-    tau = np.asarray(result.tau, dtype=float)
-    steps = np.diff(tau[k0:-1], axis=0)
-    reversing = steps[1:] * steps[:-1] < 0
-    out: dict[str, np.ndarray] = {
-        "chattering_late": np.asarray(metric_chattering(t[k0:], tau[k0:]), dtype=float),
-        "max_step_late": np.max(np.abs(steps), axis=0),
-        "alternation_late": (
-            np.mean(reversing, axis=0) if reversing.shape[0] else np.zeros(result.n)
-        ),
-    }
-    terminal = _terminal_gain_params(result)
-    if terminal is None:
-        out["terminal_gain_late"] = np.full(result.n, math.nan)
-    else:
-        beta, gamma, eps_e = terminal
-        e_seen = np.abs(result.q_meas[k0:] - result.q_ref[k0:])
-        gain = beta * gamma * np.maximum(e_seen, eps_e) ** (gamma - 1.0) * result.dt
-        out["terminal_gain_late"] = np.median(gain, axis=0)
-    s = np.asarray(result.s[k0:], dtype=float)
-    out["s_rms_late"] = np.sqrt(np.mean(s * s, axis=0))
-    return out
+    return metrics.late_metrics(
+        result.t,
+        result.tau,
+        result.s,
+        np.asarray(result.q_meas) - np.asarray(result.q_ref),
+        dt=result.dt,
+        terminal=_terminal_gain_params(result),
+        fraction=fraction,
+    )
 
 
 def _mean_row(

@@ -40,7 +40,7 @@ from slidingarm.study.output import Staging, csv_bytes
 from slidingarm.study.shipped import SCENARIOS, load_shipped
 
 if TYPE_CHECKING:
-    from slidingarm.report import ScenarioKind
+    from slidingarm.study.paper import ScenarioKind
 
 __all__ = ["Progress", "StudyOutput", "reproduce", "run", "run_scenario", "scenario_kind"]
 
@@ -107,7 +107,7 @@ def scenario_kind(scenario: Scenario) -> ScenarioKind | None:
     tanh switching with Gaussian noise on the measured positions; None for anything else
     (``sat`` switching, or noise under sign switching).
 
-    The report (:class:`slidingarm.report.ReportContext` ``kinds``) matches each scenario's
+    The report (:class:`slidingarm.study.paper_report.ReportContext` ``kinds``) matches each scenario's
     figures to the paper's by it.
     """
     noise = scenario.sensor.noise
@@ -449,7 +449,7 @@ def reproduce(
             pool.shutdown()
             pool = None
 
-        from slidingarm.report import ReportContext, write_report
+        from slidingarm.study.paper_report import ReportContext, write_report
 
         seeds = {name: setup.seed for name, setup in setups.items()}
         meta = _meta(command, seeds, time.perf_counter() - t0, jobs)

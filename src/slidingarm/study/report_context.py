@@ -1,20 +1,17 @@
-"""What the report is written from: the study's numbers, choices and figures, in one object."""
+"""What the paper's report is written from: the study's numbers, choices and figures, in one object."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any, get_args
 
 import pandas as pd
 
-__all__ = ["ReportContext", "ScenarioKind"]
+from slidingarm.study.paper import ScenarioKind
 
-#: The paper's cases (SPEC §7) a scenario of the study can be: sign switching (paper Figs. 3–9
-#: and its MSE table), tanh switching (Figs. 10–15), tanh switching with Gaussian noise on the
-#: measured positions (Figs. 16–22).
-ScenarioKind = Literal["sign", "tanh", "noise"]
+__all__ = ["ReportContext", "ScenarioKind"]
 
 #: Columns the report cannot do without, per table (the others are shown when present).
 _REQUIRED: dict[str, tuple[str, ...]] = {
@@ -29,7 +26,7 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
 
 @dataclass(frozen=True, eq=False)
 class ReportContext:
-    """Everything :func:`~slidingarm.report.write_report` needs.
+    """Everything :func:`~slidingarm.study.paper_report.write_report` needs.
 
     Attributes
     ----------
@@ -69,7 +66,7 @@ class ReportContext:
         Scenario → the paper's case it runs (:data:`ScenarioKind`), as the study defines it
         (:func:`slidingarm.study.reproduce.scenario_kind`); a scenario not listed is none of
         them. The report sets the paper's MSE beside the ``"sign"`` scenarios (the case of
-        :data:`slidingarm.study.analysis.PAPER_MSE_SWITCHING`), names the paper's figures
+        :data:`slidingarm.study.paper.PAPER_MSE_SWITCHING`), names the paper's figures
         beside each scenario's, and does not apply the reaching time under ``"noise"``.
     meta : Mapping[str, Any]
         ``version``, ``seeds``, ``runtime_s``, ``command``, ``date``, Python and NumPy

@@ -1,10 +1,21 @@
-"""The report as a sequence of blocks — markdown text and figures — rendered to both formats."""
+"""The paper's report: the study's numbers as a sequence of blocks (markdown text and
+figures), written by the generic renderer of :mod:`slidingarm.report`.
+
+:func:`write_report` writes ``report.md`` and a self-contained ``report.html`` from a
+:class:`~slidingarm.study.report_context.ReportContext`. The report only formats what the study
+computed: the MSE beside the paper's (beside the sign scenario only, the case of the paper's
+MSE table), the gains and noise with their reasons, the checks, finite-time convergence, the
+sign/tanh chattering contrast over the whole run and after the transient, the paper's errata and
+their measured cost, the gain grid, every metric (with the thresholds of
+:mod:`slidingarm.metrics`) and every figure. Every number in its prose comes from those tables
+or from the library's constants.
+"""
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +30,7 @@ from slidingarm.metrics import (
 )
 from slidingarm.plotting import FIGURES
 from slidingarm.plotting.figures import SMOOTH_SECONDS
-from slidingarm.report._context import ReportContext, ScenarioKind
+from slidingarm.report import Block, FigureBlock, write_blocks
 from slidingarm.report._format import (
     COLUMN_LABELS,
     controller_label,
@@ -32,48 +43,13 @@ from slidingarm.study.analysis import (
     ALTERNATING,
     CONVERGENCE_COLUMNS,
     LATE_FRACTION,
-    PAPER_MSE_SWITCHING,
-    RANKING,
     follows_ranking,
     ranking_mse,
 )
+from slidingarm.study.paper import PAPER_FIGURES, PAPER_MSE_SWITCHING, RANKING, ScenarioKind
+from slidingarm.study.report_context import ReportContext
 
-__all__ = ["PAPER_FIGURES", "FigureBlock", "build_blocks"]
-
-#: Scenario kind (:data:`~slidingarm.report.ScenarioKind`) → figure name (those of
-#: :data:`slidingarm.plotting.FIGURES`, in their order) → the paper's figure number(s) showing
-#: the same thing (None: the paper has no such figure). From the paper's captions: Figs. 3–9
-#: sign switching, 10–15 tanh, 16–22 tanh with noise; the paper shows joint 1 only for torque,
-#: sliding variable, velocity and error.
-PAPER_FIGURES: dict[ScenarioKind, dict[str, str | None]] = {
-    "sign": {
-        "tracking_all": "3 and 9",
-        "tracking_joint1": "4",
-        "torque": "5",
-        "sliding": "6",
-        "velocity": "7",
-        "error": "8",
-        "steady_state": None,
-    },
-    "tanh": {
-        "tracking_all": "15",
-        "tracking_joint1": "10",
-        "torque": "11",
-        "sliding": "12",
-        "velocity": "13",
-        "error": "14",
-        "steady_state": None,
-    },
-    "noise": {
-        "tracking_all": "21",
-        "tracking_joint1": "16",
-        "torque": "17",
-        "sliding": "18",
-        "velocity": "19",
-        "error": "20",
-        "steady_state": "22",
-    },
-}
+__all__ = ["PAPER_FIGURES", "ReportContext", "ScenarioKind", "build_blocks", "write_report"]
 
 _KIND_TEXT: dict[ScenarioKind, str] = {
     "sign": "sign switching (paper Figs. 3–9 and the MSE table)",
@@ -123,20 +99,6 @@ version of each as a variant of the study.
 """
 
 
-@dataclass(frozen=True)
-class FigureBlock:
-    """One figure of the report: where its PNG is (relative to the report and on disk)."""
-
-    rel: str
-    path: Path
-    caption: str
-    alt: str
-    svg: str | None = None
-
-
-Block = str | FigureBlock
-
-
 # ---------------------------------------------------------------------------- helpers
 def _unique(values: Iterable[Any]) -> list[Any]:
     seen: list[Any] = []
@@ -177,7 +139,7 @@ def _mse(metrics: pd.DataFrame, scenario: str, controller: str, joint: str) -> f
 
 
 def _ranking(ctx: ReportContext, scenario: str, joint: str) -> tuple[list[str], bool | None]:
-    """The controllers of :data:`~slidingarm.study.analysis.RANKING` this scenario ran (best
+    """The controllers of :data:`~slidingarm.study.paper.RANKING` this scenario ran (best
     first) and whether their MSE follows that order (None when fewer than two ran), as the
     study's checks judge it."""
     values = ranking_mse(ctx.metrics, scenario, joint)
@@ -792,3 +754,19 @@ def build_blocks(ctx: ReportContext, out_dir: Path) -> tuple[str, list[Block]]:
     ]
     blocks += _figure_blocks(ctx, scenarios, out_dir)
     return title, blocks
+
+
+def write_report(out_dir: str | os.PathLike[str], ctx: ReportContext) -> tuple[Path, Path]:
+    """Write ``out_dir/report.md`` and ``out_dir/report.html`` from ``ctx``.
+
+    The markdown links each figure's PNG by its path relative to ``out_dir`` (as
+    ``ctx.figures`` gives it); the HTML embeds the PNGs (:func:`slidingarm.report.write_blocks`).
+
+    Raises
+    ------
+    FileNotFoundError
+        If a figure of ``ctx.figures`` does not exist under ``out_dir``.
+    """
+    out = Path(out_dir)
+    title, blocks = build_blocks(ctx, out)
+    return write_blocks(out, title, blocks)

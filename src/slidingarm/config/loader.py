@@ -1,0 +1,153 @@
+"""Reading scenario files: TOML, ``extends`` (merge onto a base file), validation."""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from slidingarm.config.errors import ConfigError, from_pydantic
+from slidingarm.config.scenario import Scenario
+
+__all__ = ["load_scenario", "scenario_from_dict"]
+
+
+_TOML_LINE = re.compile(r"\(at line (\d+), column (\d+)\)")
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError("no such file", file=path) from None
+    except IsADirectoryError:
+        raise ConfigError("is a directory, not a scenario file", file=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read: {exc}", file=path) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = _TOML_LINE.search(msg)
+        if m is None:
+            raise ConfigError(f"invalid TOML: {msg}", file=path) from None
+        reason = msg[: m.start()].strip().rstrip(".")
+        raise ConfigError(
+            f"invalid TOML: {reason} (column {m.group(2)})", file=f"{path}:{m.group(1)}"
+        ) from None
+
+
+def _merge(
+    base: dict[str, Any],
+    over: Mapping[str, Any],
+    origin: dict[tuple[Any, ...], str],
+    over_file: str,
+    prefix: tuple[Any, ...] = (),
+) -> dict[str, Any]:
+    """Deep-merge ``over`` onto ``base``: tables merge key by key, except a table that names its
+    kind (:func:`_names_kind`), which replaces; values and arrays replace. ``origin`` records
+    which file each key path came from."""
+    out = dict(base)
+    for key, value in over.items():
+        path = (*prefix, key)
+        if isinstance(value, dict) and isinstance(out.get(key), dict) and not _names_kind(value):
+            out[key] = _merge(out[key], value, origin, over_file, path)
+        else:
+            out[key] = value
+            for p in [p for p in origin if p[: len(path)] == path]:
+                del origin[p]
+            origin[path] = over_file
+    return out
+
+
+def _names_kind(table: Mapping[str, Any]) -> bool:
+    """Whether a table says what it is (``kind``; a plant's ``preset`` or ``masses``): such a
+    table replaces the base's instead of merging into it."""
+    return any(k in table for k in ("kind", "preset", "masses"))
+
+
+def _resolve(
+    path: Path, seen: tuple[Path, ...] = ()
+) -> tuple[dict[str, Any], dict[tuple[Any, ...], str]]:
+    """Read ``path`` and the chain of files it extends; return the merged data and, for each key
+    path, the file that set it."""
+    real = path.resolve()
+    if real in seen:
+        chain = " -> ".join(p.name for p in (*seen, real))
+        raise ConfigError(f"extends forms a cycle: {chain}", file=path, path="extends")
+    data = _read_toml(path)
+    origin: dict[tuple[Any, ...], str] = {}
+    base_name = data.pop("extends", None)
+    if base_name is None:
+        for key in data:
+            origin[(key,)] = str(path)
+        return data, origin
+    if not isinstance(base_name, str):
+        raise ConfigError(
+            f"must be a file name (a string), got {base_name!r}", file=path, path="extends"
+        )
+    base_path = Path(base_name)
+    if not base_path.is_absolute():
+        base_path = path.parent / base_path
+    if not base_path.is_file():
+        raise ConfigError(
+            f"base file {base_name!r} not found (looked for {base_path})", file=path, path="extends"
+        )
+    base, origin = _resolve(base_path, (*seen, real))
+    return _merge(base, data, origin, str(path)), origin
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read, merge (``extends``), validate and check a scenario file.
+
+    Raises
+    ------
+    ConfigError
+        One line: the file (and line for TOML syntax), the key path and what is allowed.
+    """
+    p = Path(path)
+    data, origin = _resolve(p)
+    return _validate(data, source=p, origin=origin)
+
+
+def scenario_from_dict(
+    data: Mapping[str, Any], *, source: str | Path | None = None, base_dir: str | Path | None = None
+) -> Scenario:
+    """Validate and check a scenario given as a mapping (as a TOML file would parse).
+
+    ``extends`` is not resolved here; ``base_dir`` anchors a relative table ``path``
+    (default: the directory of ``source``, else the current directory).
+    """
+    d = dict(data)
+    if d.get("extends") is not None:
+        raise ConfigError(
+            "extends is resolved when reading files; load with load_scenario",
+            file=source,
+            path="extends",
+        )
+    src = None if source is None else Path(source)
+    return _validate(d, source=src, origin={}, base_dir=base_dir)
+
+
+def _validate(
+    data: Mapping[str, Any],
+    *,
+    source: Path | None,
+    origin: Mapping[tuple[Any, ...], str],
+    base_dir: str | Path | None = None,
+) -> Scenario:
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise from_pydantic(exc, Scenario, source, origin) from None
+    scenario._source = source
+    if base_dir is not None:
+        scenario._base_dir = Path(base_dir)
+    elif source is not None:
+        scenario._base_dir = source.parent
+    scenario.check()
+    return scenario

@@ -1,0 +1,375 @@
+"""The scenario (:class:`Scenario`, one comparison of controllers) and what it builds
+(:class:`Setup`, library objects ready for :func:`slidingarm.simulate`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+from typing import Any, get_args
+
+from pydantic import Field, PrivateAttr
+
+from slidingarm.config.errors import ConfigError, literal_values, tags
+from slidingarm.config.specs import (
+    _CONTROLLER_CLASSES,
+    _SURFACE_GAINS,
+    ControllerSpec,
+    DisturbanceSpec,
+    FaultSpec,
+    GainsSpec,
+    MismatchSpec,
+    PlantSpec,
+    ReferenceSpec,
+    SensorSpec,
+    SimulationSpec,
+    VelocitySpec,
+    _build_disturbance,
+    _ControllerHead,
+    _gain_names,
+    _tuple,
+)
+from slidingarm.config.values import _NAME_PATTERN, Switching, _Strict
+from slidingarm.control.controllers import SlidingModeController
+from slidingarm.disturbances import Disturbance
+from slidingarm.models.planar import PlanarArm
+from slidingarm.references import Reference, reference_from_dict
+from slidingarm.sensors import Sensor
+from slidingarm.simulate import time_grid
+
+__all__ = ["Scenario", "Setup", "choices"]
+
+# --------------------------------------------------------------------------------------------
+# the scenario
+
+
+@dataclass(frozen=True)
+class Setup:
+    """A built scenario: library objects ready for :func:`slidingarm.simulate`.
+
+    ``controllers`` maps each controller's label to the controller, in the file's order.
+    """
+
+    name: str
+    description: str
+    nominal: PlanarArm
+    plant: PlanarArm
+    reference: Reference
+    controllers: dict[str, SlidingModeController]
+    q0: tuple[float, ...]
+    qd0: tuple[float, ...] | None
+    t_final: float
+    dt: float
+    substeps: int
+    sensor: Sensor
+    disturbances: tuple[Disturbance, ...]
+    torque_limit: float | tuple[float, ...] | None
+    seed: int
+
+    def options(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`slidingarm.simulate` other than the plant, controller and
+        reference."""
+        return {
+            "q0": self.q0,
+            "qd0": self.qd0,
+            "t_final": self.t_final,
+            "dt": self.dt,
+            "substeps": self.substeps,
+            "sensor": self.sensor,
+            "disturbances": self.disturbances,
+            "torque_limit": self.torque_limit,
+            "seed": self.seed,
+        }
+
+
+class Scenario(_Strict):
+    """One comparison of controllers on one arm, reference, sensor and disturbance set."""
+
+    extends: str | None = Field(
+        default=None,
+        description="Base scenario file (relative to this one), merged under this file: tables "
+        "merge key by key, values and arrays of tables replace.",
+    )
+    name: str | None = Field(
+        default=None, pattern=_NAME_PATTERN, description="Scenario name (default: the file's stem)."
+    )
+    description: str = ""
+    switching: Switching = Field(description="Switching function shared by the controllers.")
+    plant: PlantSpec
+    mismatch: MismatchSpec = MismatchSpec()
+    reference: ReferenceSpec
+    simulation: SimulationSpec
+    sensor: SensorSpec = SensorSpec()
+    disturbances: list[DisturbanceSpec] = Field(default_factory=list)
+    gains: GainsSpec = GainsSpec()
+    controllers: list[ControllerSpec] = Field(min_length=1)
+
+    _source: Path | None = PrivateAttr(default=None)
+    _base_dir: Path | None = PrivateAttr(default=None)
+
+    @property
+    def source(self) -> Path | None:
+        """The file this scenario was read from (``None`` when built from a mapping)."""
+        return self._source
+
+    @property
+    def key(self) -> str:
+        """The scenario's name (``name``, or the file's stem, or ``"scenario"``)."""
+        if self.name:
+            return self.name
+        return self._source.stem if self._source is not None else "scenario"
+
+    # ---------------------------------------------------------------- checks and build
+    def _fail(self, path: str, reason: str) -> ConfigError:
+        return ConfigError(reason, file=self._source, path=path)
+
+    def controller_gains(self, index: int) -> dict[str, Any]:
+        """Keyword arguments of controller ``index``'s class (without the model).
+
+        Shared gains fill what the controller does not override; a gain the controller does
+        not use is not passed (``width`` with sign switching, ``k2`` with classic reaching).
+        """
+        spec = self.controllers[index]
+        here = f"controllers[{index}]"
+        shared = self.gains
+        switching = spec.switching or self.switching
+        uses = _SURFACE_GAINS[spec.name]
+        # overrides of gains this controller does not have
+        meaning = {
+            "alpha": "linear",
+            "lam": "linear",
+            "beta": "beta",
+            "gamma": "exponent",
+            "p": "exponent",
+            "q": "exponent",
+        }
+        for key, what in meaning.items():
+            if getattr(spec, key) is not None and what not in uses:
+                raise self._fail(
+                    f"{here}.{key}",
+                    f"{spec.name} has no gain {key}; its gains are {_gain_names(spec.name)}",
+                )
+        if spec.allow_nonterminal and spec.name not in ("tsmc", "ftsmc"):
+            raise self._fail(f"{here}.allow_nonterminal", "applies to tsmc and ftsmc only")
+        if spec.width is not None and switching == "sign":
+            raise self._fail(
+                f"{here}.width",
+                "the boundary layer applies to tanh and sat only, not sign switching",
+            )
+        if spec.k2 is not None and spec.reaching != "super-twisting":
+            raise self._fail(f"{here}.k2", "applies to reaching = 'super-twisting' only")
+
+        def pick(key: str, required: bool) -> Any:
+            value = getattr(spec, key)
+            if value is None:
+                value = getattr(shared, key)
+            if value is None and required:
+                raise self._fail(
+                    f"gains.{key}",
+                    f"missing: {spec.name} ({here}) needs {key}; set "
+                    "it in [gains] (shared) or on the controller",
+                )
+            return value
+
+        kwargs: dict[str, Any] = {
+            "switching": switching,
+            "law": spec.law,
+            "reaching": spec.reaching,
+        }
+        kwargs["k"] = pick("k", True)
+        if switching != "sign":
+            width = pick("width", False)
+            if width is not None:
+                kwargs["width"] = width
+        if spec.reaching == "super-twisting":
+            kwargs["k2"] = pick("k2", True)
+        if "linear" in uses:
+            linear = spec.linear if spec.linear is not None else shared.linear
+            if linear is None:
+                raise self._fail(
+                    "gains.alpha",
+                    f"missing: {spec.name} ({here}) needs alpha (= lam), "
+                    "the linear surface gain; set it in [gains] or on the controller",
+                )
+            kwargs["lam" if spec.name == "pdsmc" else "alpha"] = linear
+        if "beta" in uses:
+            kwargs["beta"] = pick("beta", True)
+        if "exponent" in uses:
+            exp = spec.exponent() or shared.exponent()
+            if not exp:
+                raise self._fail(
+                    "gains.gamma",
+                    f"missing: {spec.name} ({here}) needs gamma (or p "
+                    "and q); set it in [gains] or on the controller",
+                )
+            if spec.name == "ntsmc" and not spec.exponent() and "gamma" in exp:
+                # shared gamma = q/p; the nonsingular surface's exponent is p/q = 1/gamma
+                exp = {"gamma": 1.0 / exp["gamma"]}
+            kwargs.update(exp)
+            if spec.name in ("tsmc", "ftsmc"):
+                kwargs["allow_nonterminal"] = spec.allow_nonterminal
+                eps = pick("eps_e", False)
+                if eps is not None:
+                    kwargs["eps_e"] = eps
+        elif spec.eps_e is not None:
+            raise self._fail(f"{here}.eps_e", f"{spec.name} has no singular term to guard")
+        return {k: _tuple(v) if isinstance(v, list) else v for k, v in kwargs.items()}
+
+    def _check_lengths(self, n: int) -> None:
+        """Every per-joint value has 1 or ``n`` entries; joint numbers exist."""
+        items: list[tuple[str, Any]] = [
+            ("simulation.q0", self.simulation.q0),
+            ("simulation.qd0", self.simulation.qd0),
+            ("simulation.torque_limit", self.simulation.torque_limit),
+            ("mismatch.mass_error", self.mismatch.mass_error),
+            ("mismatch.length_error", self.mismatch.length_error),
+        ]
+        if self.sensor.noise is not None:
+            items.append(("sensor.noise.sigma", self.sensor.noise.sigma))
+        for i, d in enumerate(self.disturbances):
+            for key in ("value", "amplitude", "sigma"):
+                if hasattr(d, key):
+                    items.append((f"disturbances[{i}].{key}", getattr(d, key)))
+        gain_keys = ("alpha", "lam", "beta", "k", "width", "k2")
+        items += [(f"gains.{key}", getattr(self.gains, key)) for key in gain_keys]
+        for i, c in enumerate(self.controllers):
+            items += [(f"controllers[{i}].{key}", getattr(c, key)) for key in gain_keys]
+        exact = {"simulation.q0", "simulation.qd0"}
+        for path, value in items:
+            if isinstance(value, list):
+                if len(value) != n and (path in exact or len(value) != 1):
+                    allowed = f"{n} values" if path in exact else f"a scalar or {n} values"
+                    raise self._fail(
+                        path, f"has {len(value)} values but the arm has {n} joints (give {allowed})"
+                    )
+        for i, f in enumerate(self.sensor.faults):
+            if f.joint > n:
+                raise self._fail(
+                    f"sensor.faults[{i}].joint",
+                    f"joint {f.joint} does not exist on a {n}-joint arm (1..{n})",
+                )
+
+    def check(self) -> None:
+        """Cross-field checks pydantic cannot do alone (joint counts, time grid, gains).
+
+        Raises
+        ------
+        ConfigError
+        """
+        self.build()
+
+    def build(self) -> Setup:
+        """Build the library objects.
+
+        Raises
+        ------
+        ConfigError
+            For anything the file's keys do not fit together on (joint counts, time grid,
+            missing gains, table files), with the key path.
+        """
+        labels = [c.key for c in self.controllers]
+        for i, label in enumerate(labels):
+            if label in labels[:i]:
+                raise self._fail(
+                    f"controllers[{i}].label",
+                    f"duplicate controller {label!r}; "
+                    "give each controller of the same type a distinct label",
+                )
+        nominal = self._guard("plant", self.plant.build)
+        n = nominal.n
+        self._check_lengths(n)
+        plant = self._guard("mismatch", lambda: self.mismatch.build().apply(nominal))
+        base = self._base_dir
+        ref_path = getattr(self.reference, "path", None)
+        if ref_path is not None:
+            full = Path(ref_path) if base is None else Path(base) / ref_path
+            if not full.is_file():
+                raise self._fail("reference.path", f"table file not found: {full}")
+        reference = self._guard(
+            "reference",
+            lambda: reference_from_dict(
+                self.reference.model_dump(exclude_none=True), base_dir=base
+            ),
+        )
+        if reference.n != n:
+            raise self._fail("reference", f"describes {reference.n} joints but the arm has {n}")
+        sim = self.simulation
+        self._guard("simulation.t_final", lambda: time_grid(sim.t_final, sim.dt))
+        sensor = self._guard("sensor", self.sensor.build)
+        disturbances = tuple(
+            self._guard(f"disturbances[{i}]", partial(_build_disturbance, d))
+            for i, d in enumerate(self.disturbances)
+        )
+        controllers: dict[str, SlidingModeController] = {}
+        for i, spec in enumerate(self.controllers):
+            kwargs = self.controller_gains(i)
+            cls = _CONTROLLER_CLASSES[spec.name]
+            controllers[spec.key] = self._guard(
+                f"controllers[{i}]", partial(cls, nominal, **kwargs)
+            )
+        return Setup(
+            name=self.key,
+            description=self.description,
+            nominal=nominal,
+            plant=plant,
+            reference=reference,
+            controllers=controllers,
+            q0=tuple(sim.q0),
+            qd0=None if sim.qd0 is None else tuple(sim.qd0),
+            t_final=sim.t_final,
+            dt=sim.dt,
+            substeps=sim.substeps,
+            sensor=sensor,
+            disturbances=disturbances,
+            torque_limit=_tuple(sim.torque_limit) if sim.torque_limit is not None else None,
+            seed=sim.seed,
+        )
+
+    def _guard(self, path: str, make: Callable[[], Any]) -> Any:
+        try:
+            return make()
+        except ConfigError:
+            raise
+        except (ValueError, OSError) as exc:
+            raise self._fail(path, str(exc)) from exc
+
+    # ---------------------------------------------------------------- export
+    def to_dict(self) -> dict[str, Any]:
+        """The scenario as plain data (no ``extends``; a table ``path`` made absolute), such that
+        ``scenario_from_dict(s.to_dict())`` is the same scenario."""
+        d = self.model_dump(mode="json", exclude_none=True, exclude={"extends"})
+        d["name"] = self.key
+        ref = d.get("reference", {})
+        if ref.get("kind") == "table" and "path" in ref and self._base_dir is not None:
+            ref["path"] = str((self._base_dir / ref["path"]).resolve())
+        return d
+
+    def to_toml(self) -> str:
+        """The resolved scenario as TOML text, self-contained (see :meth:`to_dict`)."""
+        import tomli_w
+
+        return tomli_w.dumps(self.to_dict(), multiline_strings=True)
+
+
+# --------------------------------------------------------------------------------------------
+# what a scenario can name
+
+
+def choices() -> dict[str, list[str]]:
+    """What each choice of a scenario file may be, by section (for ``slidingarm list``)."""
+    head = _ControllerHead.model_fields
+    return {
+        "switching laws (switching)": list(get_args(Switching)),
+        "reaching laws (controllers[].reaching)": literal_values(head["reaching"].annotation),
+        "control laws (controllers[].law)": literal_values(head["law"].annotation),
+        "references (reference.kind)": tags(ReferenceSpec),
+        "velocity estimators (sensor.velocity.kind)": tags(VelocitySpec),
+        "sensor faults (sensor.faults[].kind)": tags(FaultSpec),
+        "disturbances (disturbances[].kind)": tags(DisturbanceSpec),
+        "model mismatch ([mismatch])": list(MismatchSpec.model_fields),
+        "plant presets (plant.preset)": literal_values(PlantSpec.model_fields["preset"].annotation),
+        "mass models (plant.mass_model)": literal_values(
+            PlantSpec.model_fields["mass_model"].annotation
+        ),
+    }

@@ -1,0 +1,520 @@
+"""The component specs of a scenario: plant, mismatch, reference, simulation, sensor,
+disturbances, gains and controllers. Each spec that is a library object builds it
+(``build()``)."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    Field,
+    StrictBool,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from slidingarm.config.values import (
+    _NAME_PATTERN,
+    FiniteFloat,
+    NonNegativeFloat,
+    NonNegativeInt,
+    NonNegativePerJoint,
+    NonNegativeVector,
+    OddInt,
+    PositiveFloat,
+    PositiveInt,
+    PositivePerJoint,
+    PositiveVector,
+    Probability,
+    Real,
+    RealPerJoint,
+    RelativeError,
+    Switching,
+    Vector,
+    _Strict,
+)
+from slidingarm.control.controllers import (
+    FTSMC,
+    NTSMC,
+    PDSMC,
+    TSMC,
+    SlidingModeController,
+)
+from slidingarm.disturbances import (
+    ConstantTorque,
+    Disturbance,
+    ModelMismatch,
+    RandomTorque,
+    SinusoidalTorque,
+)
+from slidingarm.models.planar import PlanarArm
+from slidingarm.sensors import (
+    BackwardDifference,
+    DirtyDerivative,
+    GaussianNoise,
+    LevantDifferentiator,
+    Sensor,
+    SensorFault,
+    TrueVelocity,
+    VelocityEstimator,
+)
+
+CONTROLLERS: dict[str, str] = {
+    "pdsmc": "PD sliding mode: s = ė + λe",
+    "tsmc": "terminal SMC: s = ė + β sig(e)^γ, 0 < γ < 1",
+    "ftsmc": "fast terminal SMC: s = ė + αe + β sig(e)^γ",
+    "ntsmc": "nonsingular terminal SMC (Feng et al. 2002): s = e + (1/β) sig(ė)^(p/q), 1 < p/q < 2",
+}
+
+_CONTROLLER_CLASSES: dict[str, type[SlidingModeController]] = {
+    "pdsmc": PDSMC,
+    "tsmc": TSMC,
+    "ftsmc": FTSMC,
+    "ntsmc": NTSMC,
+}
+
+#: Which surface gains each controller takes ("linear" is alpha = lam, "exponent" gamma or p/q).
+_SURFACE_GAINS: dict[str, tuple[str, ...]] = {
+    "pdsmc": ("linear",),
+    "tsmc": ("beta", "exponent"),
+    "ftsmc": ("linear", "beta", "exponent"),
+    "ntsmc": ("beta", "exponent"),
+}
+
+
+# --------------------------------------------------------------------------------------------
+# plant, mismatch, reference, simulation
+
+
+class PlantSpec(_Strict):
+    """The controller's nominal arm: the paper's preset or explicit link parameters (SI units)."""
+
+    preset: Literal["paper"] | None = Field(
+        default=None, description="'paper': m = (1, 1, 1) kg, l = (0.5, 1, 1) m (SPEC §2)."
+    )
+    mass_model: Literal["point", "rod"] = Field(
+        default="point", description="point: mass at the link's tip; rod: uniform slender rod."
+    )
+    masses: PositiveVector | None = Field(default=None, description="Link masses (kg).")
+    lengths: PositiveVector | None = Field(default=None, description="Link lengths (m).")
+    com: NonNegativeVector | None = Field(
+        default=None,
+        description="Centre-of-mass distance from each joint (m); default from mass_model.",
+    )
+    inertia: NonNegativeVector | None = Field(
+        default=None, description="Centroidal inertias (kg m²); default from mass_model."
+    )
+    gravity: NonNegativeFloat = Field(default=9.81, description="g (m/s²), acting along -y.")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> PlantSpec:
+        explicit = [
+            k for k in ("masses", "lengths", "com", "inertia") if getattr(self, k) is not None
+        ]
+        if self.preset is not None and explicit:
+            raise ValueError(
+                f"give either preset = 'paper' or explicit masses and lengths, not both "
+                f"(got preset and {', '.join(explicit)})"
+            )
+        if self.preset is None and (self.masses is None or self.lengths is None):
+            raise ValueError("needs preset = 'paper' or both masses and lengths")
+        return self
+
+    def build(self) -> PlanarArm:
+        """The nominal arm."""
+        if self.preset == "paper":
+            return PlanarArm.paper(self.mass_model, gravity=self.gravity)
+        return PlanarArm(
+            self.masses if self.masses is not None else (),
+            self.lengths if self.lengths is not None else (),
+            com=self.com,
+            inertia=self.inertia,
+            mass_model=self.mass_model,
+            gravity=self.gravity,
+        )
+
+
+class MismatchSpec(_Strict):
+    """How the simulated plant differs from the nominal arm the controllers use."""
+
+    payload: NonNegativeFloat = Field(default=0.0, description="Point mass at the tool (kg).")
+    mass_error: RelativeError = Field(default=0.0, description="Relative mass error, > -1.")
+    length_error: RelativeError = Field(default=0.0, description="Relative length error, > -1.")
+
+    def build(self) -> ModelMismatch:
+        return ModelMismatch(
+            payload=self.payload,
+            mass_error=_tuple(self.mass_error),
+            length_error=_tuple(self.length_error),
+        )
+
+
+class PaperReferenceSpec(_Strict):
+    """The paper's reference q_d(t) (SPEC §2)."""
+
+    kind: Literal["paper"]
+
+
+class QuinticReferenceSpec(_Strict):
+    """A quintic point-to-point move."""
+
+    kind: Literal["quintic"]
+    q_start: Vector
+    q_end: Vector
+    duration: PositiveFloat
+    t_start: NonNegativeFloat = 0.0
+
+
+class SineReferenceSpec(_Strict):
+    """q_d = offset + amplitude sin(2π frequency t + phase), per joint."""
+
+    kind: Literal["sine"]
+    offset: Vector
+    amplitude: RealPerJoint
+    frequency: NonNegativePerJoint
+    phase: RealPerJoint = 0.0
+
+
+class TableReferenceSpec(_Strict):
+    """A spline through a table: inline t and q, or a CSV file (path relative to the scenario)."""
+
+    kind: Literal["table"]
+    t: Vector | None = None
+    q: list[Vector] | None = None
+    path: str | None = None
+    spline: Literal["quintic", "cubic"] = "quintic"
+
+    @model_validator(mode="after")
+    def _one_source(self) -> TableReferenceSpec:
+        if self.path is not None and (self.t is not None or self.q is not None):
+            raise ValueError("give either path (a CSV file) or t and q, not both")
+        if self.path is None and (self.t is None or self.q is None):
+            raise ValueError("needs path (a CSV file with columns t, q1..qn) or both t and q")
+        return self
+
+
+ReferenceSpec = Annotated[
+    PaperReferenceSpec | QuinticReferenceSpec | SineReferenceSpec | TableReferenceSpec,
+    Field(discriminator="kind"),
+]
+
+
+class SimulationSpec(_Strict):
+    """Time grid, initial state, seed and actuator limits."""
+
+    t_final: PositiveFloat = Field(description="Duration (s), a whole number of dt.")
+    dt: PositiveFloat = Field(description="Sample time of the digital controller (s).")
+    substeps: PositiveInt = Field(default=1, description="RK4 steps per sample interval.")
+    q0: Vector = Field(description="Initial joint angles (rad).")
+    qd0: Vector | None = Field(
+        default=None, description="Initial joint velocities (rad/s); default rest."
+    )
+    seed: NonNegativeInt = Field(default=0, description="Seed of the run's random generator.")
+    torque_limit: PositivePerJoint | None = Field(
+        default=None, description="Actuator limit |tau_i| <= tau_max (N m), scalar or per joint."
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# sensor
+
+
+class NoiseSpec(_Strict):
+    """Gaussian noise on the measured joint positions."""
+
+    sigma: NonNegativePerJoint = Field(description="Standard deviation (rad), scalar or per joint.")
+
+
+class TrueVelocitySpec(_Strict):
+    """The controller uses the true joint velocity."""
+
+    kind: Literal["true"]
+
+
+class DifferenceVelocitySpec(_Strict):
+    """Backward difference of the measured position."""
+
+    kind: Literal["difference"]
+
+
+class FilteredVelocitySpec(_Strict):
+    """Dirty derivative s/(T_f s + 1)."""
+
+    kind: Literal["filtered"]
+    time_constant: PositiveFloat = Field(default=0.005, description="T_f (s).")
+
+
+class LevantVelocitySpec(_Strict):
+    """Levant's robust exact differentiator."""
+
+    kind: Literal["levant"]
+    lipschitz: PositiveFloat = Field(default=50.0, description="Bound L on |q̈| (rad/s²).")
+    lambda1: PositiveFloat = 1.5
+    lambda0: PositiveFloat = 1.1
+
+
+VelocitySpec = Annotated[
+    TrueVelocitySpec | DifferenceVelocitySpec | FilteredVelocitySpec | LevantVelocitySpec,
+    Field(discriminator="kind"),
+]
+
+
+class BiasFaultSpec(_Strict):
+    """The measurement of one joint is offset by value (rad) from t_start on."""
+
+    kind: Literal["bias"]
+    joint: PositiveInt = Field(description="Joint number, from 1.")
+    t_start: NonNegativeFloat = 0.0
+    value: FiniteFloat
+
+
+class StuckFaultSpec(_Strict):
+    """The measurement of one joint freezes from t_start on."""
+
+    kind: Literal["stuck"]
+    joint: PositiveInt
+    t_start: NonNegativeFloat = 0.0
+
+
+class DropoutFaultSpec(_Strict):
+    """Each sample of one joint is lost with probability from t_start on."""
+
+    kind: Literal["dropout"]
+    joint: PositiveInt
+    t_start: NonNegativeFloat = 0.0
+    probability: Probability
+
+
+FaultSpec = Annotated[
+    BiasFaultSpec | StuckFaultSpec | DropoutFaultSpec, Field(discriminator="kind")
+]
+
+
+class SensorSpec(_Strict):
+    """What the controller measures: position noise, velocity estimate, faults."""
+
+    noise: NoiseSpec | None = None
+    velocity: VelocitySpec = TrueVelocitySpec(kind="true")
+    faults: list[FaultSpec] = Field(default_factory=list)
+    reasons: str | None = Field(
+        default=None, description="Why this sensor (markdown, for the report)."
+    )
+
+    def build(self) -> Sensor:
+        v = self.velocity
+        velocity: VelocityEstimator
+        if isinstance(v, FilteredVelocitySpec):
+            velocity = DirtyDerivative(v.time_constant)
+        elif isinstance(v, LevantVelocitySpec):
+            velocity = LevantDifferentiator(v.lipschitz, v.lambda1, v.lambda0)
+        elif isinstance(v, DifferenceVelocitySpec):
+            velocity = BackwardDifference()
+        else:
+            velocity = TrueVelocity()
+        faults = tuple(
+            SensorFault(
+                f.kind,
+                f.joint,
+                t_start=f.t_start,
+                value=getattr(f, "value", 0.0),
+                probability=getattr(f, "probability", 1.0),
+            )
+            for f in self.faults
+        )
+        noise = None if self.noise is None else GaussianNoise(_tuple(self.noise.sigma))
+        return Sensor(noise=noise, velocity=velocity, faults=faults)
+
+
+# --------------------------------------------------------------------------------------------
+# disturbances
+
+
+class ConstantDisturbanceSpec(_Strict):
+    """A constant torque (N m) from t_start on."""
+
+    kind: Literal["constant"]
+    value: RealPerJoint
+    t_start: NonNegativeFloat = 0.0
+
+
+class SinusoidalDisturbanceSpec(_Strict):
+    """amplitude sin(2π frequency t + phase) (N m)."""
+
+    kind: Literal["sinusoidal"]
+    amplitude: RealPerJoint
+    frequency: NonNegativeFloat = Field(default=1.0, description="Hz.")
+    phase: FiniteFloat = 0.0
+
+
+class RandomDisturbanceSpec(_Strict):
+    """Gaussian torque drawn once per sample (N m)."""
+
+    kind: Literal["random"]
+    sigma: NonNegativePerJoint
+
+
+DisturbanceSpec = Annotated[
+    ConstantDisturbanceSpec | SinusoidalDisturbanceSpec | RandomDisturbanceSpec,
+    Field(discriminator="kind"),
+]
+
+
+def _build_disturbance(d: Any) -> Disturbance:
+    if isinstance(d, ConstantDisturbanceSpec):
+        return ConstantTorque(_tuple(d.value), t_start=d.t_start)
+    if isinstance(d, SinusoidalDisturbanceSpec):
+        return SinusoidalTorque(_tuple(d.amplitude), frequency=d.frequency, phase=d.phase)
+    return RandomTorque(_tuple(d.sigma))
+
+
+# --------------------------------------------------------------------------------------------
+# gains and controllers
+
+
+class _GainFields(_Strict):
+    """Gains a controller may take; the shared ones and each controller's overrides."""
+
+    alpha: PositivePerJoint | None = Field(
+        default=None,
+        description="Linear surface gain: FTSMC's alpha = PDSMC's lambda (give alpha or lam).",
+    )
+    lam: PositivePerJoint | None = Field(default=None, description="Synonym of alpha.")
+    beta: PositivePerJoint | None = Field(
+        default=None, description="Terminal surface gain of TSMC and FTSMC (and NTSMC's beta)."
+    )
+    gamma: Real | None = Field(
+        default=None,
+        description="Terminal exponent in (0, 1) (give gamma or p and q); for NTSMC p/q in (1, 2).",
+    )
+    p: OddInt | None = Field(default=None, description="Odd integer; gamma = q/p (NTSMC: p/q).")
+    q: OddInt | None = Field(default=None, description="Odd integer q < p.")
+    k: PositivePerJoint | None = Field(
+        default=None, description="Reaching gain K = diag(k) (rad/s²)."
+    )
+    width: PositivePerJoint | None = Field(
+        default=None, description="Boundary layer of tanh/sat (rad/s); ignored with sign."
+    )
+    k2: PositivePerJoint | None = Field(
+        default=None, description="Integral gain of the super-twisting reaching law."
+    )
+    eps_e: PositiveFloat | None = Field(
+        default=None, description="Singularity guard: |e|^(gamma-1) evaluated at max(|e|, eps_e)."
+    )
+
+    @field_validator("gamma")
+    @classmethod
+    def _gamma_range(cls, v: float | None, info: ValidationInfo) -> float | None:
+        if v is None:
+            return v
+        if not math.isfinite(v):
+            raise ValueError(f"must be finite, got {v!r}")
+        name = info.data.get("name")
+        if name == "ntsmc":
+            if not 1.0 < v < 2.0:
+                raise ValueError(
+                    f"must lie in (1, 2) for ntsmc (nonsingular: 1 < p/q < 2), got {v:.5g}"
+                )
+        elif info.data.get("allow_nonterminal", False):
+            if v <= 0:
+                raise ValueError(f"must be > 0, got {v:.5g}")
+        elif not 0.0 < v < 1.0:
+            hint = (
+                "; the paper's p/q > 1 is not terminal (set allow_nonterminal = true on a tsmc "
+                "or ftsmc controller to measure it)"
+                if v >= 1.0
+                else ""
+            )
+            raise ValueError(
+                f"must lie in (0, 1) (terminal: gamma = q/p with odd q < p), got {v:.5g}{hint}"
+            )
+        return v
+
+    @field_validator("p", "q")
+    @classmethod
+    def _odd(cls, v: int | None, info: ValidationInfo) -> int | None:
+        # positive and odd: OddInt
+        if v is None:
+            return v
+        if info.field_name == "q":
+            p = info.data.get("p")
+            if p is not None and not v < p and not info.data.get("allow_nonterminal", False):
+                raise ValueError(
+                    f"must be < p (gamma = q/p < 1 is terminal; p/q for ntsmc), got q = {v} with p = {p}"
+                )
+        return v
+
+    @model_validator(mode="after")
+    def _exclusive(self) -> _GainFields:
+        if self.alpha is not None and self.lam is not None:
+            raise ValueError(
+                "alpha and lam are the same gain (the linear term of PDSMC and FTSMC); give one"
+            )
+        if self.gamma is not None and (self.p is not None or self.q is not None):
+            raise ValueError("give the exponent once: gamma or p and q, not both")
+        if (self.p is None) != (self.q is None):
+            raise ValueError("give both p and q (gamma = q/p), or gamma")
+        return self
+
+    @property
+    def linear(self) -> float | list[float] | None:
+        """alpha (= lam), whichever was given."""
+        return self.alpha if self.alpha is not None else self.lam
+
+    def exponent(self) -> dict[str, Any]:
+        """``{"gamma": g}`` or ``{"p": p, "q": q}`` or ``{}``."""
+        if self.gamma is not None:
+            return {"gamma": self.gamma}
+        if self.p is not None:
+            return {"p": self.p, "q": self.q}
+        return {}
+
+
+class GainsSpec(_GainFields):
+    """Gains shared by every controller wherever a gain means the same thing (stated once)."""
+
+    reasons: str | None = Field(
+        default=None, description="Why these gains (markdown, for the report)."
+    )
+
+
+class _ControllerHead(_Strict):
+    """What a controller is (declared before its gains, whose validators read these)."""
+
+    name: Literal["pdsmc", "tsmc", "ftsmc", "ntsmc"] = Field(description="Controller type.")
+    label: str | None = Field(
+        default=None,
+        pattern=_NAME_PATTERN,
+        description="Unique name of this controller's results (default: name).",
+    )
+    law: Literal["model", "paper"] = Field(
+        default="model",
+        description="model: the correct law; paper: the paper's eqs. 19-22 (erratum).",
+    )
+    reaching: Literal["classic", "super-twisting"] = "classic"
+    switching: Switching | None = Field(
+        default=None, description="Overrides the scenario's switching."
+    )
+    allow_nonterminal: StrictBool = Field(
+        default=False,
+        description="Admit gamma > 1 (the paper's p/q) to measure that erratum (tsmc, ftsmc).",
+    )
+
+
+class ControllerSpec(_GainFields, _ControllerHead):
+    """One controller to compare; its gain keys override the shared ``[gains]``."""
+
+    @property
+    def key(self) -> str:
+        """The label, or the name."""
+        return self.label or self.name
+
+
+def _gain_names(name: str) -> str:
+    names = {"linear": "alpha (= lam)", "beta": "beta", "exponent": "gamma (or p, q)"}
+    return ", ".join([names[g] for g in _SURFACE_GAINS[name]] + ["k", "width", "k2"])
+
+
+def _tuple(v: Any) -> Any:
+    return tuple(v) if isinstance(v, list) else v
