@@ -28,7 +28,7 @@ from numba import config
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm import _engine as E
-from slidingarm._validate import has_bool
+from slidingarm._validate import ParameterTypeError, has_bool
 from slidingarm._version import __version__
 from slidingarm.control.base import Controller
 from slidingarm.disturbances import (
@@ -90,7 +90,7 @@ class Every:
 
     def __post_init__(self) -> None:
         if isinstance(self.k, bool) or not isinstance(self.k, int | np.integer):
-            raise TypeError(f"Every(k): k must be an integer >= 1, got {self.k!r}")
+            raise ParameterTypeError(f"Every(k): k must be an integer >= 1, got {self.k!r}")
         if self.k < 1:
             raise ValueError(f"Every(k): k must be an integer >= 1, got {self.k!r}")
 
@@ -108,7 +108,7 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
         if isinstance(v, str | bytes | bool | np.bool_) or not isinstance(
             v, int | float | np.integer | np.floating
         ):
-            raise TypeError(f"{name} must be a number (s), got {type(v).__name__} {v!r}")
+            raise ParameterTypeError(f"{name} must be a number (s), got {type(v).__name__} {v!r}")
     tf = float(t_final)
     h = float(dt)
     if not (math.isfinite(h) and h > 0):
@@ -123,11 +123,11 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
 
 def _numbers(name: str, value: Any) -> FloatArray:
     if isinstance(value, str | bytes | set | frozenset | dict) or has_bool(value):
-        raise TypeError(f"{name} must be numbers, got {type(value).__name__} {value!r}")
+        raise ParameterTypeError(f"{name} must be numbers, got {type(value).__name__} {value!r}")
     try:
         return np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be numbers, got {value!r}") from exc
+        raise ParameterTypeError(f"{name} must be numbers, got {value!r}") from exc
 
 
 def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
@@ -145,7 +145,7 @@ def _listify(name: str, value: Any, cls: type | tuple[type, ...], what: str) -> 
     items = list(value) if isinstance(value, Sequence) and not isinstance(value, str) else [value]
     for item in items:
         if not isinstance(item, cls):
-            raise TypeError(f"{name} must be {what} (or a sequence of them), got {type(item).__name__}")
+            raise ParameterTypeError(f"{name} must be {what} (or a sequence of them), got {type(item).__name__}")
     if not items:
         raise ValueError(f"{name} must not be empty")
     return items
@@ -159,7 +159,7 @@ def _disturbance_lists(disturbances: Any) -> list[tuple[Disturbance, ...]]:
 
     def check(d: Any) -> Disturbance:
         if not isinstance(d, _DISTURBANCES):
-            raise TypeError(
+            raise ParameterTypeError(
                 "disturbances must be torque disturbances (ConstantTorque, SinusoidalTorque, "
                 f"RandomTorque), got {type(d).__name__}; a model mismatch belongs in the plant: "
                 "ModelMismatch(...).apply(arm)"
@@ -203,12 +203,12 @@ def _torque_limits(torque_limit: Any, n: int) -> list[FloatArray | None]:
 
 def _seed_list(seeds: Any) -> list[int]:
     if isinstance(seeds, bool | np.bool_) or isinstance(seeds, str | bytes | set | frozenset):
-        raise TypeError(f"seeds must be an integer or a sequence of integers, got {seeds!r}")
+        raise ParameterTypeError(f"seeds must be an integer or a sequence of integers, got {seeds!r}")
     raw = [seeds] if isinstance(seeds, int | np.integer) else list(seeds)
     out = []
     for s in raw:
         if isinstance(s, bool | np.bool_) or not isinstance(s, int | np.integer):
-            raise TypeError(f"seeds must be integers, got {s!r}")
+            raise ParameterTypeError(f"seeds must be integers, got {s!r}")
         if s < 0:
             raise ValueError(f"seeds must be integers >= 0 (numpy SeedSequence entropy), got {s}")
         out.append(int(s))
@@ -408,7 +408,7 @@ def simulate_batch(
     if record not in ("full", "metrics") and not isinstance(record, Every):
         raise ValueError(f"record must be 'full', 'metrics' or Every(k), got {record!r}")
     if not isinstance(throw, bool):
-        raise TypeError(f"throw must be True or False, got {throw!r}")
+        raise ParameterTypeError(f"throw must be True or False, got {throw!r}")
     plants = _listify("plant", plant, (ArmModel, SteppedPlant), "an arm model or a SteppedPlant")
     ctrls = _listify("controller", controller, Controller, "a Controller")
     n = plants[0].n
@@ -422,11 +422,11 @@ def simulate_batch(
     if ref_n != n or not hasattr(reference, "evaluate"):
         raise ValueError(f"reference must be a Reference with n = {n} joints, got {reference!r}")
     if isinstance(substeps, bool) or not isinstance(substeps, int | np.integer):
-        raise TypeError(f"substeps must be an integer >= 1, got {substeps!r}")
+        raise ParameterTypeError(f"substeps must be an integer >= 1, got {substeps!r}")
     if substeps < 1:
         raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
     if isinstance(qd_limit, str | bytes | bool | np.bool_):
-        raise TypeError(f"qd_limit must be a number (rad/s), got {qd_limit!r}")
+        raise ParameterTypeError(f"qd_limit must be a number (rad/s), got {qd_limit!r}")
     if not (math.isfinite(qd_limit) and qd_limit > 0):
         raise ValueError(f"qd_limit must be a finite speed > 0 rad/s, got {qd_limit!r}")
     sensors = [Sensor()] if sensor is None else _listify("sensor", sensor, Sensor, "a Sensor")
@@ -668,18 +668,18 @@ def simulate(
         and joint.
     """
     if not isinstance(plant, ArmModel | SteppedPlant):
-        raise TypeError(
+        raise ParameterTypeError(
             f"plant must be an arm model (PlanarArm, ...) or a SteppedPlant, got {type(plant).__name__}"
         )
     if not isinstance(controller, Controller):
-        raise TypeError(f"controller must be a Controller, got {type(controller).__name__}")
+        raise ParameterTypeError(f"controller must be a Controller, got {type(controller).__name__}")
     q0a = _vectors("q0", q0, plant.n)
     if q0a.shape[0] != 1:
         raise ValueError(
             f"q0 must have shape ({plant.n},) for one run; use simulate_batch for a batch"
         )
     if isinstance(seed, bool | np.bool_) or not isinstance(seed, int | np.integer):
-        raise TypeError(f"seed must be an integer, got {seed!r}")
+        raise ParameterTypeError(f"seed must be an integer, got {seed!r}")
     if torque_limit is not None and np.ndim(torque_limit) > 1:
         raise ValueError(
             f"torque_limit must be > 0 N m, a scalar or one per joint ({plant.n}), got "

@@ -23,6 +23,7 @@ from typing import Any, Literal, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._validate import ParameterTypeError
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
 from slidingarm.control.base import Controller, LawHandle
@@ -111,7 +112,7 @@ class SlidingModeController(Controller):
         k2: ArrayLike | None = None,
     ) -> None:
         if not isinstance(model, ArmModel):
-            raise TypeError(
+            raise ParameterTypeError(
                 "model must be an arm model (an ArmModel such as PlanarArm: the controller's "
                 f"nominal arm), got {type(model).__name__}"
             )
@@ -247,7 +248,7 @@ class SlidingModeController(Controller):
         allowed = {"model", *kwargs}
         unknown = sorted(set(changes) - allowed)
         if unknown:
-            raise TypeError(
+            raise ParameterTypeError(
                 f"{type(self).__name__}.replace() got unknown parameter(s) {unknown}; "
                 f"it takes {sorted(allowed)}"
             )

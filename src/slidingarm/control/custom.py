@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._validate import ParameterTypeError
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
 from slidingarm.control.base import Controller, LawHandle
@@ -93,31 +94,31 @@ class CustomController(Controller):
         s_unit: str = "rad/s",
     ) -> None:
         if not _is_dispatcher(kernel):
-            raise TypeError(
+            raise ParameterTypeError(
                 "kernel must be a numba @njit function "
                 f"kernel(t, q, qd, q_ref, qd_ref, qdd_ref, M, h, params, state, tau, s), got "
                 f"{type(kernel).__name__}"
             )
         if not isinstance(nominal, ArmModel):
-            raise TypeError(f"nominal must be an ArmModel, got {type(nominal).__name__}")
+            raise ParameterTypeError(f"nominal must be an ArmModel, got {type(nominal).__name__}")
         if isinstance(params, str | bytes | set | frozenset | dict):
-            raise TypeError(f"params must be a sequence of numbers, got {type(params).__name__}")
+            raise ParameterTypeError(f"params must be a sequence of numbers, got {type(params).__name__}")
         from slidingarm._validate import has_bool
 
         if has_bool(params):
-            raise TypeError(f"params must be numbers, not booleans, got {params!r}")
+            raise ParameterTypeError(f"params must be numbers, not booleans, got {params!r}")
         try:
             p = np.array(params, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError) as exc:
-            raise TypeError(f"params must be a sequence of numbers, got {params!r}") from exc
+            raise ParameterTypeError(f"params must be a sequence of numbers, got {params!r}") from exc
         if not np.all(np.isfinite(p)):
             raise ValueError(f"params must be finite, got {p.tolist()}")
         if isinstance(state_size, bool) or not isinstance(state_size, int | np.integer):
-            raise TypeError(f"state_size must be an integer >= 0, got {state_size!r}")
+            raise ParameterTypeError(f"state_size must be an integer >= 0, got {state_size!r}")
         if state_size < 0:
             raise ValueError(f"state_size must be an integer >= 0, got {state_size}")
         if not isinstance(name, str) or not name:
-            raise TypeError(f"name must be a non-empty string, got {name!r}")
+            raise ParameterTypeError(f"name must be a non-empty string, got {name!r}")
         names = tuple(gains) if gains is not None else ()
         if names and len(names) != p.shape[0]:
             raise ValueError(
@@ -128,7 +129,7 @@ class CustomController(Controller):
         try:
             pointer = LD.KernelPointer(kernel)
         except Exception as exc:  # numba's typing errors are long; say what is expected
-            raise TypeError(
+            raise ParameterTypeError(
                 f"kernel {getattr(kernel, '__name__', kernel)!r} does not compile for the "
                 "signature (t: float64, q, qd, q_ref, qd_ref, qdd_ref: float64[::1], M: "
                 "float64[:, ::1], h, params, state, tau, s: float64[::1]) -> None: "
@@ -192,12 +193,12 @@ class CustomController(Controller):
             if key in self._gains:
                 value = changes.pop(key)
                 if isinstance(value, bool) or not isinstance(value, int | float | np.number):
-                    raise TypeError(f"{key} must be a number, got {value!r}")
+                    raise ParameterTypeError(f"{key} must be a number, got {value!r}")
                 p = np.array(kwargs["params"], dtype=np.float64)
                 p[self._gains.index(key)] = value
                 kwargs["params"] = p
         if changes:
-            raise TypeError(
+            raise ParameterTypeError(
                 f"CustomController.replace() got unknown parameter(s) {sorted(changes)}; it "
                 f"takes params, nominal, state_size, name, s_unit and the gains {list(self._gains)}"
             )

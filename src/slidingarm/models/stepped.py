@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from slidingarm._validate import ParameterTypeError
 from slidingarm.models.base import ArmModel
 
 __all__ = ["SteppedArm", "SteppedPlant"]
@@ -52,7 +53,7 @@ class SteppedArm(SteppedPlant):
 
     def __init__(self, model: ArmModel) -> None:
         if not isinstance(model, ArmModel):
-            raise TypeError(f"model must be an ArmModel, got {type(model).__name__}")
+            raise ParameterTypeError(f"model must be an ArmModel, got {type(model).__name__}")
         from slidingarm.models import _dispatch as MD
 
         self.model = model
