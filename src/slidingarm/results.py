@@ -266,6 +266,35 @@ def run_message(code: int, time: float, joint: int, qd_limit: float) -> str:
     return f"{text} at t = {time:.6g} s, joint {joint}"
 
 
+def metric_values(
+    t: FloatArray, e: FloatArray, s: FloatArray, tau: FloatArray, failed: NDArray[np.bool_]
+) -> dict[str, FloatArray]:
+    """Every metric of :func:`slidingarm.metrics.summary` (its defaults), (B, n) each, of
+    runs with signals ``e``, ``s``, ``tau`` (B, T, n); NaN for the ``failed`` runs, whose
+    traces are NaN from the failure on and are not measured."""
+    from slidingarm.metrics import (
+        DEFAULT_CUTOFF_HZ,
+        DEFAULT_DELTA_E,
+        DEFAULT_DELTA_S,
+        DEFAULT_WINDOW,
+        _metric_table,
+    )
+
+    if failed.any():
+        keep = ~failed[:, None, None]
+        e, s, tau = (np.where(keep, x, 0.0) for x in (e, s, tau))
+    table = _metric_table(
+        t, e, s, tau, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E, window=DEFAULT_WINDOW,
+        cutoff_hz=DEFAULT_CUTOFF_HZ,
+    )  # fmt: skip
+    out = {}
+    for name, v in table.items():
+        arr = np.array(v, dtype=np.float64)
+        arr[failed] = np.nan
+        out[name] = arr
+    return out
+
+
 def _none_or_frozen(x: Any) -> FloatArray | None:
     if x is None:
         return None
@@ -423,16 +452,15 @@ class BatchResult:
         """
         import pandas as pd
 
-        from slidingarm.metrics import METRIC_COLUMNS, summary
+        from slidingarm.metrics import METRIC_COLUMNS
 
         if self.metric_values is None:
             self._traces()
-            table = summary(self)
-            bad = np.repeat(~self.ok, table.shape[0] // max(len(self), 1))
-            if bad.any():
-                table.loc[bad, list(METRIC_COLUMNS)] = np.nan
-            return table
-        values = self.metric_values
+            assert self.q is not None and self.q_ref is not None
+            assert self.s is not None and self.tau is not None
+            values = metric_values(self.t, self.q - self.q_ref, self.s, self.tau, ~self.ok)
+        else:
+            values = self.metric_values
         nb, n = next(iter(values.values())).shape
         columns: dict[str, Any] = {
             "run": np.repeat(np.arange(nb), n + 1),

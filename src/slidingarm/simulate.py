@@ -40,7 +40,7 @@ from slidingarm.disturbances import (
 )
 from slidingarm.models.base import ArmModel
 from slidingarm.models.stepped import SteppedPlant
-from slidingarm.results import BatchResult, SimResult, run_message
+from slidingarm.results import BatchResult, SimResult, metric_values, run_message
 from slidingarm.sensors import Sensor
 
 if TYPE_CHECKING:
@@ -488,7 +488,8 @@ def simulate_batch(
         if keep is not None:
             for k, f in zip(keep, full, strict=True):
                 k[sl] = f[:, ::stride]
-        return _metric_arrays(t, full, qr, status[sl])
+        q, _qd, _qm, _qdm, tau, s = full
+        return metric_values(t, q - qr[None], s, tau, status[sl, 0] != E.STATUS_OK)
 
     stepped = any(isinstance(p, SteppedPlant) for p in plants)
     nthreads = _threads(nb, stepped)
@@ -570,41 +571,6 @@ def _blank_failures(outs: list[FloatArray], status: NDArray[np.int64]) -> None:
         first = int(status[i, 1])
         for o in outs:
             o[i, first:] = np.nan
-
-
-def _metric_arrays(
-    t: FloatArray,
-    full: list[FloatArray],
-    qr: FloatArray,
-    status: NDArray[np.int64],
-) -> dict[str, FloatArray]:
-    """Per-run, per-joint metrics (runs, n) of a chunk's full traces; NaN for failed runs."""
-    from slidingarm.metrics import (
-        DEFAULT_CUTOFF_HZ,
-        DEFAULT_DELTA_E,
-        DEFAULT_DELTA_S,
-        DEFAULT_WINDOW,
-        _metric_table,
-    )
-
-    q, _qd, _qm, _qdm, tau, s = full
-    failed = status[:, 0] != E.STATUS_OK
-    e = q - qr[None]
-    if failed.any():
-        # failed runs are NaN-padded; compute on zeros and blank their rows after
-        e = np.where(failed[:, None, None], 0.0, e)
-        s = np.where(failed[:, None, None], 0.0, s)
-        tau = np.where(failed[:, None, None], 0.0, tau)
-    table = _metric_table(
-        t, e, s, tau, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E, window=DEFAULT_WINDOW,
-        cutoff_hz=DEFAULT_CUTOFF_HZ,
-    )  # fmt: skip
-    out = {}
-    for name, v in table.items():
-        v = np.array(v, dtype=np.float64)
-        v[failed] = np.nan
-        out[name] = v
-    return out
 
 
 def simulate(
