@@ -6,7 +6,7 @@ warm-up, and each ratio is the median of the ratios of runs that took turns (our
 warm within each turn).
 
 1. The paper's run (3 joints, 4.5 s at 5e-4 s, 9001 samples, RK4): end to end through
-   :func:`slidingarm.simulate`, and the compiled loop alone (``_engine.run_batch`` on the
+   :func:`slidingarm.simulate`, and the compiled loop alone (``_engine.run_one`` on the
    arrays ``simulate`` prepares), both taking turns with a plain numba reference: the same loop
    written from scratch in ``_numba_reference.py`` (explicit ``M``, ``h``, RK4, the FTSMC law),
    checked to give our trajectory to 1e-9. The ratios ours / reference, measured in the same
@@ -62,6 +62,7 @@ REFERENCE_DEV = 1e-9
 COLD_RUNS = 3
 CALL_P99_US = 5.0
 IMPORT_S = 1.0
+CUSTOM_RATIO = 1.5
 
 
 def paper_problem() -> tuple[sa.PlanarArm, sa.FTSMC, sa.PaperReference]:
@@ -104,17 +105,17 @@ def timed(
 def _captured_kernel_args() -> Iterator[list[tuple[Any, ...]]]:
     """Record the arguments ``simulate`` passes to the compiled loop (copies)."""
     calls: list[tuple[Any, ...]] = []
-    real = E.run_batch
+    real = E.run_one
 
     def spy(*args: Any) -> None:
         calls.append(tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args))
         real(*args)
 
-    E.run_batch = spy
+    E.run_one = spy
     try:
         yield calls
     finally:
-        E.run_batch = real
+        E.run_one = real
 
 
 def kernel_args() -> tuple[Any, ...]:
@@ -394,6 +395,45 @@ def batch_rate(b: int, threads: int | None) -> float:
         numba.config.NUMBA_NUM_THREADS = saved
 
 
+# ---------------------------------------------------------------------------- contracts
+def custom_cost(reps: int) -> tuple[float, float, float, float]:
+    """The paper run under PDSMC with tanh: built-in law against the same law as a custom
+    kernel (the engine computes M and h, the kernel forms M a + h)."""
+    from _custom_pdsmc import pdsmc_tanh
+
+    arm, ref = sa.PlanarArm.paper(), sa.PaperReference()
+    builtin = sa.PDSMC(arm, lam=2.0, k=20.0, switching="tanh", width=0.05)
+    custom = sa.CustomController(pdsmc_tanh, arm, params=(2.0, 20.0, 0.05))
+
+    def run(c: Any) -> sa.SimResult:
+        return sa.simulate(arm, c, ref, q0=PAPER_Q0, t_final=T_FINAL, dt=DT)
+
+    dev = float(np.max(np.abs(run(builtin).q - run(custom).q)))
+    b, c = timed(lambda: run(builtin), lambda: run(custom), repeats=reps)
+    return (
+        float(np.median(b)) * 1e3,
+        float(np.median(c)) * 1e3,
+        float(np.median(c / b)),
+        dev,
+    )
+
+
+def handoff_worth(kargs: tuple[Any, ...], reps: int) -> tuple[float, float]:
+    """The compiled loop compiled again with ``REUSE_KINEMATICS`` off, against the loop."""
+    import types as pytypes
+
+    from numba import njit
+
+    fn = E.run_one.py_func
+    glb = dict(fn.__globals__, REUSE_KINEMATICS=False)
+    off = njit(nogil=True, error_model="numpy")(
+        pytypes.FunctionType(fn.__code__, glb, fn.__name__, fn.__defaults__, fn.__closure__)
+    )
+    off(*kargs)
+    with_, without = timed(lambda: E.run_one(*kargs), lambda: off(*kargs), repeats=reps)
+    return float(np.median(without)) * 1e3, float(np.median(without / with_))
+
+
 # ---------------------------------------------------------------------------- report
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -427,7 +467,7 @@ def main() -> None:
             f"(> {REFERENCE_DEV:g}): they do not run the same loop"
         )
     e2e, kernel, nref = timed(
-        run_ours, lambda: E.run_batch(*kargs), lambda: NR.closed_loop(*rargs), repeats=reps
+        run_ours, lambda: E.run_one(*kargs), lambda: NR.closed_loop(*rargs), repeats=reps
     )
     e2e_ms = float(np.median(e2e)) * 1e3
     kernel_ms = float(np.median(kernel)) * 1e3
@@ -466,6 +506,9 @@ def main() -> None:
     nb = 200 if quick else 1000
     rate_all = batch_rate(nb, None)
     rate_one = batch_rate(nb // 5, 1)
+
+    builtin_ms, custom_ms, custom_ratio, custom_dev = custom_cost(reps)
+    nohand_ms, hand_ratio = handoff_worth(kargs, reps)
 
     rows: list[tuple[str, str, str, str]] = []
 
@@ -533,6 +576,17 @@ def main() -> None:
         row(f"    {name} (imported by {owner})", f"{cum:.2f} s")
     row(f"simulate_batch B={nb}, all threads", f"{rate_all:.0f} runs/s")
     row(f"simulate_batch B={nb // 5}, one thread", f"{rate_one:.0f} runs/s")
+    row("PDSMC tanh, built-in law (end to end)", f"{builtin_ms:.2f} ms")
+    row("PDSMC tanh, custom kernel (end to end)", f"{custom_ms:.2f} ms")
+    row(
+        "  ratio custom / built-in",
+        f"{custom_ratio:.2f}x",
+        f"<= {CUSTOM_RATIO:g}x",
+        custom_ratio <= CUSTOM_RATIO,
+    )
+    row("  max |q_custom - q_builtin|", f"{custom_dev:.1e} rad", "<= 1e-12", custom_dev <= 1e-12)
+    row("loop without the sin/cos hand-off", f"{nohand_ms:.2f} ms")
+    row("  ratio without / with the hand-off", f"{hand_ratio:.3f}x")
 
     widths = [max(len(r[i]) for r in rows) for i in range(4)]
     head = ("measure", "median", "target", "met")

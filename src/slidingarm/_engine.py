@@ -89,6 +89,13 @@ _WORK = _RK4 + MD.RK4_ROWS
 _MATRICES = _WORK + CK.CONTROL_WORK_ROWS
 
 
+#: Whether the plant's first RK4 stage reuses the kinematics the law left in the workspace when
+#: the measurement was the exact position and plant and nominal model are of one kind (the
+#: planar kind: its sines and cosines). ``benchmarks/bench_engine.py`` measures its worth by
+#: compiling the loop with it off.
+REUSE_KINEMATICS = True
+
+
 def workspace_rows(n: int) -> int:
     """Rows of the ``(rows, n)`` workspace of one run."""
     return _MATRICES + 2 * n
@@ -295,7 +302,7 @@ def run_one(
     status[0] = STATUS_OK
     status[1] = -1
     status[2] = -1
-    same_kind = pkind == mkind
+    reuse = REUSE_KINEMATICS and pkind == mkind
     for k in range(nt):
         bad, exact = control_sample(
             k, tgrid[k], dt, law_code, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode,
@@ -311,7 +318,7 @@ def run_one(
         # --- plant over [t_k, t_k+1); the law left the kinematics of the measured q in work
         ok = True
         for sub in range(substeps):
-            known = exact and same_kind and sub == 0
+            known = exact and reuse and sub == 0
             ok &= MD.rk4_step(pkind, pp, pg, q, qd, tau_applied, h, known, rk, work)
         code, j = check_state(q, qd, ok, qd_limit)
         if code != STATUS_OK:

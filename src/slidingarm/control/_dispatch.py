@@ -115,12 +115,42 @@ def law_into(
             mmat, lw, work,
         )  # fmt: skip
     else:
-        h = work[CK.ROW_H]
-        MD.mass_and_bias(mkind, mparams, mg, q, qd, mmat, h, work)
-        for j in range(q.shape[0]):
-            tau_out[j] = 0.0
-            s_out[j] = 0.0
-        kernel(t, q, qd, q_ref, qd_ref, qdd_ref, mmat, h, lp, state, tau_out, s_out)
+        _custom_law_into(
+            kernel, t, lp, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau_out,
+            s_out, mmat, work,
+        )  # fmt: skip
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="never")
+def _custom_law_into(
+    kernel: Any,
+    t: float,
+    lp: np.ndarray,
+    state: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
+    mg: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    mmat: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """A custom law: ``M``, ``h`` of the nominal model, then the kernel through its pointer.
+
+    Not inlined: compiled (and cached) on its own, it keeps the loop that built-in laws use
+    as quick to compile as before.
+    """
+    h = work[CK.ROW_H]
+    MD.mass_and_bias(mkind, mparams, mg, q, qd, mmat, h, work)
+    for j in range(q.shape[0]):
+        tau_out[j] = 0.0
+        s_out[j] = 0.0
+    kernel(t, q, qd, q_ref, qd_ref, qdd_ref, mmat, h, lp, state, tau_out, s_out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -2,7 +2,8 @@
 
 A sliding-mode controller reaches compiled code as one float64 parameter vector ``p``, private
 to this family: ``NCI`` integer codes (stored as floats) followed by the ``(NCF, n)`` table of
-per-joint parameters, row by row (:func:`pack`, :func:`code`, :func:`par`). The nominal arm
+per-joint parameters, row by row (:func:`pack`): code ``i`` is ``int(p[i])``, parameter ``(row, j)`` is
+``p[NCI + row n + j]``. The nominal arm
 the law uses is a model handle ``(mkind, mparams, mg)`` evaluated through
 :mod:`slidingarm.models._dispatch`. The codes and row indices are defined here, once.
 
@@ -79,16 +80,6 @@ def unpack(p: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return p[:NCI].astype(np.int64), p[NCI:].reshape(NCF, n).copy()
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def code(p: np.ndarray, i: int) -> int:
-    """Integer code ``i`` (a ``CI_*``) of the parameter vector ``p``."""
-    return int(p[i])
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def par(p: np.ndarray, row: int, j: int, n: int) -> float:
-    """Row ``row`` (a ``CF_*``), joint ``j`` of the parameter table of ``p``."""
-    return p[NCI + row * n + j]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -120,15 +111,15 @@ def _surface_joint(
     p: np.ndarray, j: int, n: int, ej: float, edj: float
 ) -> tuple[float, float]:
     """``(s, nu)`` of joint ``j`` for the errors ``ej, edj``; see :func:`surface_into`."""
-    if code(p, CI_SURFACE) == SURFACE_FAST_TERMINAL:
-        alpha = par(p, CF_ALPHA, j, n)
-        beta = par(p, CF_BETA, j, n)
+    if int(p[CI_SURFACE]) == SURFACE_FAST_TERMINAL:
+        alpha = p[NCI + CF_ALPHA * n + j]
+        beta = p[NCI + CF_BETA * n + j]
         s = edj + alpha * ej
         gain = alpha
         if beta != 0.0:
-            gamma = par(p, CF_GAMMA, j, n)
+            gamma = p[NCI + CF_GAMMA * n + j]
             ae = abs(ej)
-            eps_e = par(p, CF_EPS_E, j, n)
+            eps_e = p[NCI + CF_EPS_E * n + j]
             if ae >= eps_e:
                 pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
                 s += beta * pw * _sign(ej)
@@ -137,8 +128,8 @@ def _surface_joint(
                 s += beta * (ae**gamma) * _sign(ej)
                 gain += beta * gamma * eps_e ** (gamma - 1.0)
         return s, gain * edj
-    beta = par(p, CF_BETA, j, n)
-    gamma = par(p, CF_GAMMA, j, n)
+    beta = p[NCI + CF_BETA * n + j]
+    gamma = p[NCI + CF_GAMMA * n + j]
     aed = abs(edj)
     sg = _sign(edj)
     return ej + (aed**gamma) * sg / beta, beta / gamma * (aed ** (2.0 - gamma)) * sg
@@ -249,8 +240,8 @@ def control_into(
     :math:`M^{-1}` used as a scalar).
     """
     n = q.shape[0]
-    swcode = code(p, CI_SWITCHING)
-    classic = code(p, CI_REACHING) == REACH_CLASSIC
+    swcode = int(p[CI_SWITCHING])
+    classic = int(p[CI_REACHING]) == REACH_CLASSIC
     nu = work[_ROW_NU]
     r = work[_ROW_R]
     acc = work[_ROW_ACC]
@@ -260,12 +251,12 @@ def control_into(
         nu[j] = nu_j
         # reaching term r
         if classic:
-            r[j] = par(p, CF_K, j, n) * switch(swcode, s, par(p, CF_WIDTH, j, n))
+            r[j] = p[NCI + CF_K * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j])
         else:
-            r[j] = par(p, CF_K, j, n) * math.sqrt(abs(s)) * _sign(s) + st_state[j]
-            st_state[j] += dt * par(p, CF_K2, j, n) * switch(swcode, s, par(p, CF_WIDTH, j, n))
+            r[j] = p[NCI + CF_K * n + j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
+            st_state[j] += dt * p[NCI + CF_K2 * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j])
         acc[j] = qdd_ref[j] - nu_j - r[j]
-    if code(p, CI_LAW) == LAW_MODEL:
+    if int(p[CI_LAW]) == LAW_MODEL:
         MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)
     else:
         _paper_law_into(mkind, mparams, g, q, qd, acc, tau_out, mmat, lw, work)

@@ -8,6 +8,8 @@ Adding a kind means: a code, a branch in each kernel below, and a subclass of ``
 the Python side only ever builds handles of known kinds, so the fall-through of a branch
 (no kind matched) is unreachable.
 
+The planar kind's block is ``[m; l; c; I]`` (4 n values), viewed as ``(4, n)`` by each branch.
+
 Workspace: every kernel takes ``work`` of shape ``(WORK_ROWS, n)``. After any kernel that
 evaluates the model at a position ``q``, ``work`` holds that kind's position-dependent
 kinematics of ``q`` (for the planar kind: the cosines and sines of the absolute angles, rows
@@ -36,18 +38,12 @@ _OPTS = {"cache": True, "nogil": True, "error_model": "numpy", "inline": "always
 
 
 @njit(**_OPTS)
-def _planar(params: np.ndarray, n: int) -> np.ndarray:
-    """The planar kind's ``(4, n)`` view ``[m; l; c; I]`` of its parameter block."""
-    return params[: 4 * n].reshape((4, n))
-
-
-@njit(**_OPTS)
 def mass_matrix(
     kind: int, params: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work: np.ndarray
 ) -> None:
     """:math:`M(q)` into ``out`` (n, n)."""
     if kind == KIND_PLANAR:
-        PK.mass_matrix_into(_planar(params, q.shape[0]), q, out, work)
+        PK.mass_matrix_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), q, out, work)
 
 
 @njit(**_OPTS)
@@ -62,7 +58,7 @@ def coriolis(
 ) -> None:
     """The Coriolis matrix :math:`C(q, \\dot q)` into ``out`` (n, n)."""
     if kind == KIND_PLANAR:
-        PK.coriolis_into(_planar(params, q.shape[0]), q, qd, out, work)
+        PK.coriolis_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), q, qd, out, work)
 
 
 @njit(**_OPTS)
@@ -71,7 +67,7 @@ def gravity_torque(
 ) -> None:
     """:math:`G(q)` into ``out`` (n,)."""
     if kind == KIND_PLANAR:
-        PK.gravity_into(_planar(params, q.shape[0]), g, q, out, work)
+        PK.gravity_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, out, work)
 
 
 @njit(**_OPTS)
@@ -86,7 +82,7 @@ def bias(
 ) -> None:
     """:math:`h(q, \\dot q) = C\\dot q + G` into ``out`` (n,)."""
     if kind == KIND_PLANAR:
-        PK.bias_into(_planar(params, q.shape[0]), g, q, qd, out, work)
+        PK.bias_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, qd, out, work)
 
 
 @njit(**_OPTS)
@@ -102,7 +98,7 @@ def mass_and_bias(
 ) -> None:
     """:math:`M(q)` into ``mmat`` and :math:`h(q, \\dot q)` into ``h``, sharing the kinematics."""
     if kind == KIND_PLANAR:
-        PK.mass_and_bias_into(_planar(params, q.shape[0]), g, q, qd, mmat, h, work)
+        PK.mass_and_bias_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, qd, mmat, h, work)
 
 
 @njit(**_OPTS)
@@ -118,7 +114,7 @@ def inverse_dynamics(
 ) -> None:
     """:math:`\\tau = M(q)\\ddot q + h(q, \\dot q)` into ``out`` (n,)."""
     if kind == KIND_PLANAR:
-        PK.inverse_dynamics_into(_planar(params, q.shape[0]), g, q, qd, qdd, out, work)
+        PK.inverse_dynamics_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, qd, qdd, out, work)
 
 
 @njit(**_OPTS)
@@ -135,7 +131,7 @@ def forward_dynamics(
     """:math:`\\ddot q = M(q)^{-1}(\\tau - h)` into ``out`` (n,); ``False`` if ``M`` is not
     positive definite."""
     if kind == KIND_PLANAR:
-        return PK.forward_dynamics_into(_planar(params, q.shape[0]), g, q, qd, tau, out, work)
+        return PK.forward_dynamics_into(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, qd, tau, out, work)
     return False
 
 
@@ -145,7 +141,7 @@ def potential_energy(
 ) -> float:
     """Potential energy :math:`V(q)` (J)."""
     if kind == KIND_PLANAR:
-        return PK.potential_energy(_planar(params, q.shape[0]), g, q, work)
+        return PK.potential_energy(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, work)
     return np.nan
 
 
@@ -168,7 +164,7 @@ def rk4_step(
     ``q`` (see the module docstring). ``False`` if a mass matrix was not positive definite.
     """
     if kind == KIND_PLANAR:
-        return PK.rk4_step(_planar(params, q.shape[0]), g, q, qd, tau, h, known, scratch, work)
+        return PK.rk4_step(params[: 4 * q.shape[0]].reshape((4, q.shape[0])), g, q, qd, tau, h, known, scratch, work)
     return False
 
 
