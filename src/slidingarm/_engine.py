@@ -107,6 +107,7 @@ def control_sample(
     t_k: float,
     dt: float,
     law_code: int,
+    entry: Any,
     kernel: Any,
     lp: np.ndarray,
     lstate: np.ndarray,
@@ -146,8 +147,7 @@ def control_sample(
     z0 = ws[_Z0]
     tau_applied = ws[_TAU_APPLIED]
     work = ws[_WORK:_MATRICES]
-    mmat = ws[_MATRICES : _MATRICES + n]
-    lw = ws[_MATRICES + n : _MATRICES + 2 * n]
+    mats = ws[_MATRICES : _MATRICES + 2 * n]
     # --- measurement
     for j in range(n):
         if k > 0 and mhold[k, j]:
@@ -183,8 +183,8 @@ def control_sample(
         exact &= qm[j] == q[j]
     # --- control
     LD.law_into(
-        law_code, kernel, t_k, lp, lstate, mkind, mp, mg, qm, qdm, q_ref[k], qd_ref[k],
-        qdd_ref[k], dt, tau_b[k], s_b[k], mmat, lw, work,
+        law_code, entry, kernel, t_k, lp, lstate, mkind, mp, mg, qm, qdm, q_ref[k], qd_ref[k],
+        qdd_ref[k], dt, tau_b[k], s_b[k], mats, work,
     )  # fmt: skip
     bad = -1
     for j in range(n):
@@ -229,6 +229,7 @@ def run_one(
     pp: np.ndarray,
     pg: float,
     law_code: int,
+    entry: Any,
     kernel: Any,
     lp: np.ndarray,
     lstate: np.ndarray,
@@ -260,7 +261,7 @@ def run_one(
     workspace: np.ndarray,
 ) -> None:
     """One closed-loop run of a compiled plant ``(pkind, pp, pg)`` under the law ``(law_code,
-    kernel, lp, lstate)`` with nominal model ``(mkind, mp, mg)``; see the module docstring.
+    entry, kernel, lp, lstate)`` with nominal model ``(mkind, mp, mg)``; see the module docstring.
 
     Shapes: ``q0, qd0, tmax`` (n,); ``tgrid`` (T,); ``q_ref, qd_ref, qdd_ref, madd, mhold,
     dist`` and the outputs (T, n); ``vfb`` (NVF, n); ``status`` (3,) receives ``[code,
@@ -305,7 +306,7 @@ def run_one(
     reuse = REUSE_KINEMATICS and pkind == mkind
     for k in range(nt):
         bad, exact = control_sample(
-            k, tgrid[k], dt, law_code, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode,
+            k, tgrid[k], dt, law_code, entry, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode,
             vfb, q_ref, qd_ref, qdd_ref, tmax, dist, ws, q_b, qd_b, qm_b, qdm_b, tau_b, s_b,
         )  # fmt: skip
         if bad >= 0:
@@ -334,6 +335,7 @@ def control_step(
     t_k: float,
     dt: float,
     law_code: int,
+    entry: Any,
     kernel: Any,
     lp: np.ndarray,
     lstate: np.ndarray,
@@ -359,7 +361,7 @@ def control_step(
 ) -> int:
     """:func:`control_sample` for the Python-stepped loop; returns its bad joint (-1: none)."""
     bad, _exact = control_sample(
-        k, t_k, dt, law_code, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode, vfb,
+        k, t_k, dt, law_code, entry, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode, vfb,
         q_ref, qd_ref, qdd_ref, tmax, db, ws, q_b, qd_b, qm_b, qdm_b, tau_b, s_b,
     )  # fmt: skip
     return bad

@@ -1,18 +1,21 @@
 """The one place that dispatches on a control law's kind (compiled), and the custom-kernel ABI.
 
 A control law reaches compiled code as a *law handle*: an integer ``code``, a float64
-parameter vector private to the law, a state size, and a first-class function pointer
-(:class:`KernelPointer`). Built-in sliding-mode laws are ``LAW_SLIDING_MODE`` and ignore the
-pointer (they get a pointer to :func:`null_kernel`, so that one compiled loop serves every
-law); a :class:`~slidingarm.control.custom.CustomController` is ``LAW_CUSTOM`` and is called
-through its pointer with the nominal model's ``M`` and ``h`` computed here:
+parameter vector private to the law, a state size, and two first-class function pointers
+(:class:`FunctionPointer`). Built-in sliding-mode laws are ``LAW_SLIDING_MODE`` and never call
+the pointers (they carry pointers to :func:`null_kernel` and :func:`null_entry`, so that one
+compiled loop serves every law). A :class:`~slidingarm.control.custom.CustomController` is
+``LAW_CUSTOM``: the loop calls ``entry(kernel, ...)``, where :func:`custom_entry` computes the
+nominal model's ``M`` and ``h`` and calls the user's kernel:
 
 .. code-block:: text
 
     kernel(t, q, qd, q_ref, qd_ref, qdd_ref, M, h, params, state, tau, s) -> None
 
-The pointer is typed by its signature only (:data:`KERNEL_TYPE`), so the loop that takes it
-is compiled and cached once, whatever kernel a user passes.
+The pointers are typed by their signatures only (:data:`KERNEL_TYPE`, :data:`ENTRY_TYPE`), so
+the loop that takes them is compiled and cached once, whatever kernel a user passes; and
+since the model evaluation of custom laws sits behind ``entry``, it is compiled only when a
+custom law is first made, not with the loop every built-in law uses.
 """
 
 from __future__ import annotations
@@ -31,59 +34,123 @@ LAW_SLIDING_MODE = 0
 LAW_CUSTOM = 1
 
 _V = types.float64[::1]
+_M = types.float64[:, ::1]
 #: Signature every custom kernel is compiled to.
-KERNEL_SIGNATURE = types.void(
-    types.float64, _V, _V, _V, _V, _V, types.float64[:, ::1], _V, _V, _V, _V, _V
-)
+KERNEL_SIGNATURE = types.void(types.float64, _V, _V, _V, _V, _V, _M, _V, _V, _V, _V, _V)
 #: The first-class function type of a compiled kernel.
 KERNEL_TYPE = types.FunctionType(KERNEL_SIGNATURE)
+#: Signature of an entry the loop calls through a pointer (a custom law, the paper's law):
+#: ``(kernel, t, params, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau, s,
+#: mats, work)``, ``mats`` (2 n, n) scratch.
+ENTRY_SIGNATURE = types.void(
+    KERNEL_TYPE, types.float64, _V, _V, types.int64, _M, types.float64, _V, _V, _V, _V, _V,
+    _V, _V, _M, _M,
+)  # fmt: skip
+#: The first-class function type of an entry.
+ENTRY_TYPE = types.FunctionType(ENTRY_SIGNATURE)
 
 
-class KernelPointer(WrapperAddressProtocol):
-    """A compiled kernel as a first-class function of :data:`KERNEL_SIGNATURE`.
+class FunctionPointer(WrapperAddressProtocol):
+    """A compiled function as a first-class function of ``signature``.
 
-    Numba types it by its signature alone, so passing different kernels to one compiled
-    function does not compile (or cache) that function again. Pickles as its kernel (a
-    module-level ``@njit`` function pickles by reference); the address is looked up again in
-    the receiving process.
+    Numba types it by its signature alone, so passing different functions to one compiled
+    function does not compile (or cache) that function again. Pickles as its function (a
+    module-level ``@njit`` function pickles by reference) and signature; the address is
+    looked up again in the receiving process.
     """
 
-    def __init__(self, kernel: Any) -> None:
+    def __init__(self, function: Any, signature: Any = KERNEL_SIGNATURE) -> None:
         from numba.experimental.function_type import _get_wrapper_address
 
-        kernel.compile(KERNEL_SIGNATURE.args)
-        self.kernel = kernel
-        self._address = int(_get_wrapper_address(kernel, KERNEL_SIGNATURE))
+        function.compile(signature.args)
+        self.function = function
+        self._signature = signature
+        self._address = int(_get_wrapper_address(function, signature))
 
     def __wrapper_address__(self) -> int:
         return self._address
 
     def signature(self) -> Any:
-        return KERNEL_SIGNATURE
+        return self._signature
 
     def __reduce__(self) -> tuple[Any, ...]:
-        return (KernelPointer, (self.kernel,))
+        return (FunctionPointer, (self.function, self._signature))
 
 
 @njit(cache=True, nogil=True)
 def null_kernel(t, q, qd, q_ref, qd_ref, qdd_ref, M, h, params, state, tau, s):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """The pointer built-in laws carry: never called."""
+    """The kernel pointer built-in laws carry: never called."""
 
 
-_NULL: KernelPointer | None = None
+@njit(cache=True, nogil=True)
+def null_entry(kernel, t, lp, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau, s, mats, work):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """The entry pointer built-in laws carry: never called."""
 
 
-def null_pointer() -> KernelPointer:
-    """The (shared) pointer to :func:`null_kernel`."""
+@njit(cache=True, nogil=True, error_model="numpy")
+def custom_entry(
+    kernel: Any,
+    t: float,
+    lp: np.ndarray,
+    state: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
+    mg: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    mats: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """A custom law's step: ``M`` (``mats[:n]``), ``h`` (``work`` row ``CK.ROW_H``) of the
+    nominal model at ``(q, qd)``, ``tau`` and ``s`` zeroed, then the kernel."""
+    mmat = mats[: q.shape[0]]
+    h = work[CK.ROW_H]
+    MD.mass_and_bias(mkind, mparams, mg, q, qd, mmat, h, work)
+    for j in range(q.shape[0]):
+        tau_out[j] = 0.0
+        s_out[j] = 0.0
+    kernel(t, q, qd, q_ref, qd_ref, qdd_ref, mmat, h, lp, state, tau_out, s_out)
+
+
+_NULL: tuple[FunctionPointer, FunctionPointer] | None = None
+_ENTRY: FunctionPointer | None = None
+_PAPER: FunctionPointer | None = None
+
+
+def null_pointers() -> tuple[FunctionPointer, FunctionPointer]:
+    """The (shared) ``(kernel, entry)`` pointers of built-in laws."""
     global _NULL
     if _NULL is None:
-        _NULL = KernelPointer(null_kernel)
+        _NULL = (FunctionPointer(null_kernel), FunctionPointer(null_entry, ENTRY_SIGNATURE))
     return _NULL
+
+
+def entry_pointer() -> FunctionPointer:
+    """The (shared) pointer to :func:`custom_entry` (compiled on first use)."""
+    global _ENTRY
+    if _ENTRY is None:
+        _ENTRY = FunctionPointer(custom_entry, ENTRY_SIGNATURE)
+    return _ENTRY
+
+
+def paper_pointer() -> FunctionPointer:
+    """The (shared) pointer to the paper's law :func:`slidingarm.control._kernels.paper_entry`
+    (compiled on first use)."""
+    global _PAPER
+    if _PAPER is None:
+        _PAPER = FunctionPointer(CK.paper_entry, ENTRY_SIGNATURE)
+    return _PAPER
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def law_into(
     code: int,
+    entry: Any,
     kernel: Any,
     t: float,
     lp: np.ndarray,
@@ -99,58 +166,81 @@ def law_into(
     dt: float,
     tau_out: np.ndarray,
     s_out: np.ndarray,
-    mmat: np.ndarray,
-    lw: np.ndarray,
+    mats: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """Torque ``tau_out`` and sliding variable ``s_out`` (n,) of the law ``(code, kernel, lp,
-    state)`` at the measured ``(q, qd)``, with the nominal model ``(mkind, mparams, mg)``.
+    """Torque ``tau_out`` and sliding variable ``s_out`` (n,) of the law ``(code, entry,
+    kernel, lp, state)`` at the measured ``(q, qd)``, with the nominal model ``(mkind,
+    mparams, mg)``.
 
-    ``mmat``, ``lw`` are (n, n) scratch, ``work`` is ``(CK.CONTROL_WORK_ROWS, n)``; on return
+    ``mats`` is (2 n, n) scratch, ``work`` is ``(CK.CONTROL_WORK_ROWS, n)``; on return
     ``work`` holds the nominal model kind's kinematics of ``q``.
     """
     if code == LAW_SLIDING_MODE:
         CK.control_into(
-            lp, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, state, dt, tau_out, s_out,
-            mmat, lw, work,
+            entry, kernel, lp, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, state, dt,
+            tau_out, s_out, mats, work,
         )  # fmt: skip
     else:
-        _custom_law_into(
-            kernel, t, lp, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau_out,
-            s_out, mmat, work,
-        )  # fmt: skip
+        entry(kernel, t, lp, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau_out,
+              s_out, mats, work)  # fmt: skip
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="never")
-def _custom_law_into(
-    kernel: Any,
-    t: float,
-    lp: np.ndarray,
-    state: np.ndarray,
+@njit(cache=True, nogil=True, error_model="numpy")
+def control_once(
+    p: np.ndarray,
     mkind: int,
     mparams: np.ndarray,
-    mg: float,
+    g: float,
     q: np.ndarray,
     qd: np.ndarray,
     q_ref: np.ndarray,
     qd_ref: np.ndarray,
     qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
     tau_out: np.ndarray,
     s_out: np.ndarray,
-    mmat: np.ndarray,
-    work: np.ndarray,
+    scratch: np.ndarray,
 ) -> None:
-    """A custom law: ``M``, ``h`` of the nominal model, then the kernel through its pointer.
+    """One sliding-mode call from Python with the model law: torque into ``tau_out``, ``s``
+    into ``s_out`` (n,); ``scratch`` is ``(CK.CONTROL_WORK_ROWS + 2 n, n)``. No pointer is
+    passed (a pointer argument costs microseconds per call): the paper branch is unreachable
+    here, see :func:`control_once_entry`."""
+    n = q.shape[0]
+    CK.control_into(
+        null_entry, null_kernel, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state,
+        dt, tau_out, s_out, scratch[CK.CONTROL_WORK_ROWS : CK.CONTROL_WORK_ROWS + 2 * n],
+        scratch[: CK.CONTROL_WORK_ROWS],
+    )  # fmt: skip
 
-    Not inlined: compiled (and cached) on its own, it keeps the loop that built-in laws use
-    as quick to compile as before.
-    """
-    h = work[CK.ROW_H]
-    MD.mass_and_bias(mkind, mparams, mg, q, qd, mmat, h, work)
-    for j in range(q.shape[0]):
-        tau_out[j] = 0.0
-        s_out[j] = 0.0
-    kernel(t, q, qd, q_ref, qd_ref, qdd_ref, mmat, h, lp, state, tau_out, s_out)
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def control_once_entry(
+    entry: Any,
+    kernel: Any,
+    p: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    scratch: np.ndarray,
+) -> None:
+    """:func:`control_once` for a law reached through ``entry`` (the paper's)."""
+    n = q.shape[0]
+    CK.control_into(
+        entry, kernel, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,
+        tau_out, s_out, scratch[CK.CONTROL_WORK_ROWS : CK.CONTROL_WORK_ROWS + 2 * n],
+        scratch[: CK.CONTROL_WORK_ROWS],
+    )  # fmt: skip
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -164,6 +254,6 @@ def mass_and_bias_once(
     h: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """``M`` and ``h`` of the nominal model, as :func:`law_into` hands them to a custom kernel
+    """``M`` and ``h`` of the nominal model, as :func:`custom_entry` hands them to a kernel
     (the Python call path of a custom law)."""
     MD.mass_and_bias(mkind, mparams, mg, q, qd, mmat, h, work)

@@ -2,7 +2,7 @@
 
 A sliding-mode controller reaches compiled code as one float64 parameter vector ``p``, private
 to this family: ``NCI`` integer codes (stored as floats) followed by the ``(NCF, n)`` table of
-per-joint parameters, row by row (:func:`pack`): code ``i`` is ``int(p[i])``, parameter ``(row, j)`` is
+per-joint parameters, row by row (:func:`pack`): code ``i`` is ``p[i]`` (a small integer, exact as a float, compared as one), parameter ``(row, j)`` is
 ``p[NCI + row n + j]``. The nominal arm
 the law uses is a model handle ``(mkind, mparams, mg)`` evaluated through
 :mod:`slidingarm.models._dispatch`. The codes and row indices are defined here, once.
@@ -19,6 +19,7 @@ where :math:`s` and :math:`\\nu` come from the surface and :math:`r` from the re
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -111,7 +112,7 @@ def _surface_joint(
     p: np.ndarray, j: int, n: int, ej: float, edj: float
 ) -> tuple[float, float]:
     """``(s, nu)`` of joint ``j`` for the errors ``ej, edj``; see :func:`surface_into`."""
-    if int(p[CI_SURFACE]) == SURFACE_FAST_TERMINAL:
+    if p[CI_SURFACE] == SURFACE_FAST_TERMINAL:
         alpha = p[NCI + CF_ALPHA * n + j]
         beta = p[NCI + CF_BETA * n + j]
         s = edj + alpha * ej
@@ -161,30 +162,40 @@ def surface_into(
         s_out[j], nu_out[j] = _surface_joint(p, j, n, e[j], ed[j])
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="never")
-def _paper_law_into(
+@njit(cache=True, nogil=True, error_model="numpy")
+def paper_entry(
+    kernel: Any,
+    t: float,
+    lp: np.ndarray,
+    state: np.ndarray,
     mkind: int,
     mparams: np.ndarray,
     g: float,
     q: np.ndarray,
     qd: np.ndarray,
-    acc: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
     tau_out: np.ndarray,
-    mmat: np.ndarray,
-    lw: np.ndarray,
+    s_out: np.ndarray,
+    mats: np.ndarray,
     work: np.ndarray,
 ) -> None:
     """The paper's law (eqs. 19-22) into ``tau_out``, given ``nu`` and ``r`` in their
-    ``work`` rows; ``acc`` is overwritten. See :func:`control_into`.
+    ``work`` rows (see :func:`control_into`); ``mats`` is (2 n, n) scratch. The signature is
+    the custom-law entry's (:data:`slidingarm.control._dispatch.ENTRY_SIGNATURE`), unused
+    arguments included.
 
-    Not inlined: it serves only the errata, and compiled on its own (and cached on its own) it
-    keeps the simulator's time loop a third quicker to compile.
+    Reached through a function pointer: it serves only the errata, so it is compiled (and
+    cached) when a controller with ``law="paper"`` is first made, not with the loop.
     """
     n = q.shape[0]
+    mmat = mats[:n]
+    lw = mats[n : 2 * n]
     nu = work[_ROW_NU]
     r = work[_ROW_R]
     # h into acc (no longer needed), f = -M^{-1} h into f_saved
-    h = acc
+    h = work[_ROW_ACC]
     MD.mass_and_bias(mkind, mparams, g, q, qd, mmat, h, work)
     rhs = work[_ROW_RHS]
     col = work[_ROW_COL]
@@ -205,6 +216,8 @@ def _paper_law_into(
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def control_into(
+    entry: Any,
+    kernel: Any,
     p: np.ndarray,
     mkind: int,
     mparams: np.ndarray,
@@ -218,15 +231,14 @@ def control_into(
     dt: float,
     tau_out: np.ndarray,
     s_out: np.ndarray,
-    mmat: np.ndarray,
-    lw: np.ndarray,
+    mats: np.ndarray,
     work: np.ndarray,
 ) -> None:
     """Compute the control torque ``tau_out`` and sliding variable ``s_out`` (both (n,)).
 
     ``q, qd`` are what the controller measures; ``st_state`` (n,) is the super-twisting
     integral :math:`w`, advanced by ``dt`` after use (ignored by the classic reaching law).
-    ``mmat``, ``lw`` are (n, n) scratch arrays, ``work`` is ``(CONTROL_WORK_ROWS, n)``; on
+    ``mats`` is (2 n, n) scratch, ``work`` is ``(CONTROL_WORK_ROWS, n)``; on
     return it holds the nominal model kind's kinematics of ``q``
     (:mod:`slidingarm.models._dispatch`).
 
@@ -240,8 +252,8 @@ def control_into(
     :math:`M^{-1}` used as a scalar).
     """
     n = q.shape[0]
-    swcode = int(p[CI_SWITCHING])
-    classic = int(p[CI_REACHING]) == REACH_CLASSIC
+    swcode = p[CI_SWITCHING]
+    classic = p[CI_REACHING] == REACH_CLASSIC
     nu = work[_ROW_NU]
     r = work[_ROW_R]
     acc = work[_ROW_ACC]
@@ -256,37 +268,9 @@ def control_into(
             r[j] = p[NCI + CF_K * n + j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
             st_state[j] += dt * p[NCI + CF_K2 * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j])
         acc[j] = qdd_ref[j] - nu_j - r[j]
-    if int(p[CI_LAW]) == LAW_MODEL:
+    if p[CI_LAW] == LAW_MODEL:
         MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)
     else:
-        _paper_law_into(mkind, mparams, g, q, qd, acc, tau_out, mmat, lw, work)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def control_once(
-    p: np.ndarray,
-    mkind: int,
-    mparams: np.ndarray,
-    g: float,
-    q: np.ndarray,
-    qd: np.ndarray,
-    q_ref: np.ndarray,
-    qd_ref: np.ndarray,
-    qdd_ref: np.ndarray,
-    st_state: np.ndarray,
-    dt: float,
-    tau_out: np.ndarray,
-    s_out: np.ndarray,
-    scratch: np.ndarray,
-) -> None:
-    """One call from Python: torque into ``tau_out`` and sliding variable into ``s_out``, (n,)
-    each; ``scratch`` is ``(CONTROL_WORK_ROWS + 2 n, n)`` holding the work rows and the two
-    (n, n) matrices."""
-    n = q.shape[0]
-    work = scratch[:CONTROL_WORK_ROWS]
-    mmat = scratch[CONTROL_WORK_ROWS : CONTROL_WORK_ROWS + n]
-    lw = scratch[CONTROL_WORK_ROWS + n : CONTROL_WORK_ROWS + 2 * n]
-    control_into(
-        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, mmat,
-        lw, work,
-    )  # fmt: skip
+        # the paper's law, through its pointer (:func:`paper_entry`)
+        entry(kernel, 0.0, p, st_state, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref,
+              tau_out, s_out, mats, work)  # fmt: skip

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 if TYPE_CHECKING:
-    from slidingarm.control._dispatch import KernelPointer
+    from slidingarm.control._dispatch import FunctionPointer
     from slidingarm.models.base import ArmModel
 
 __all__ = ["Controller", "LawHandle"]
@@ -31,12 +31,13 @@ class LawHandle:
     """What compiled code needs of a law: its kind ``code`` (of
     :mod:`slidingarm.control._dispatch`), its read-only float64 ``params``, the length
     ``state_size`` of the state vector it keeps between samples (zeroed at the start of a run),
-    and the first-class function ``kernel`` (used by custom laws only)."""
+    and the first-class functions ``kernel`` and ``entry`` (called for custom laws only)."""
 
     code: int
     params: FloatArray
     state_size: int
-    kernel: KernelPointer
+    kernel: FunctionPointer
+    entry: FunctionPointer
 
 
 class Controller(ABC):

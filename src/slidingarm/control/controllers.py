@@ -209,7 +209,10 @@ class SlidingModeController(Controller):
     @property
     def handle(self) -> LawHandle:
         """The law for compiled code: the sliding-mode kind, its parameter vector."""
-        return LawHandle(LD.LAW_SLIDING_MODE, self._p, self.state_size, LD.null_pointer())
+        kernel, entry = LD.null_pointers()
+        if self._law == "paper":
+            entry = LD.paper_pointer()
+        return LawHandle(LD.LAW_SLIDING_MODE, self._p, self.state_size, kernel, entry)
 
     @property
     def state_size(self) -> int:
@@ -363,7 +366,10 @@ class SlidingModeController(Controller):
         """
         # the cheapest fresh array (a view of a (2, n) one cost 0.15 us more); s is discarded
         tau = np.empty(self._n)
-        CK.control_once(
+        if self._law == "paper":
+            self._paper_call(q, qd, q_ref, qd_ref, qdd_ref, dt, tau, self._s)
+            return tau
+        LD.control_once(
             self._p,
             self._mkind,
             self._mparams,
@@ -380,6 +386,17 @@ class SlidingModeController(Controller):
             self._scratch,
         )
         return tau
+
+    def _paper_call(self, *args: Any) -> None:
+        """The Python call of the paper's law, through its pointer (writable copies: the
+        pointer's argument types)."""
+        dt, tau, s = args[5:]
+        kernel, _null = LD.null_pointers()
+        q, qd, q_ref, qd_ref, qdd_ref = (np.array(a, dtype=np.float64) for a in args[:5])
+        LD.control_once_entry(
+            LD.paper_pointer(), kernel, np.array(self._p), self._mkind, np.array(self._mparams),
+            self._g, q, qd, q_ref, qd_ref, qdd_ref, self._state, dt, tau, s, self._scratch,
+        )  # fmt: skip
 
     def evaluate(
         self,
@@ -429,18 +446,21 @@ class SlidingModeController(Controller):
         step = 0.0 if dt is None else float(dt)
         tau, s = np.empty(n), np.empty(n)
         state = self._state.copy()  # restored if the call is rejected below
-        CK.control_once(
-            self._p,
-            self._mkind,
-            self._mparams,
-            self._g,
-            *arrays,
-            self._state,
-            step,
-            tau,
-            s,
-            self._scratch,
-        )
+        if self._law == "paper":
+            self._paper_call(*arrays, step, tau, s)
+        else:
+            LD.control_once(
+                self._p,
+                self._mkind,
+                self._mparams,
+                self._g,
+                *arrays,
+                self._state,
+                step,
+                tau,
+                s,
+                self._scratch,
+            )
         bad = np.flatnonzero(~(np.isfinite(tau) & np.isfinite(s)))
         if bad.size:
             self._state[:] = state

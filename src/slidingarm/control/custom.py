@@ -127,7 +127,7 @@ class CustomController(Controller):
         if len(set(names)) != len(names) or {"params", "name", "state_size"} & set(names):
             raise ValueError(f"gains must be distinct names other than params/name, got {names}")
         try:
-            pointer = LD.KernelPointer(kernel)
+            pointer = LD.FunctionPointer(kernel)
         except Exception as exc:  # numba's typing errors are long; say what is expected
             raise ParameterTypeError(
                 f"kernel {getattr(kernel, '__name__', kernel)!r} does not compile for the "
@@ -175,7 +175,7 @@ class CustomController(Controller):
 
     @property
     def handle(self) -> LawHandle:
-        return LawHandle(LD.LAW_CUSTOM, self._p, self._state_size, self._pointer)
+        return LawHandle(LD.LAW_CUSTOM, self._p, self._state_size, self._pointer, LD.entry_pointer())
 
     def replace(self, **changes: Any) -> CustomController:
         """A new controller with ``params``, ``nominal``, ``state_size``, ``name``, ``s_unit``

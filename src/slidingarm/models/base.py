@@ -1,7 +1,7 @@
 """The arm-model contract: what the controllers, the engine and the numpy API rely on.
 
 An :class:`ArmModel` is immutable and picklable. It reaches compiled code as a
-:class:`ModelHandle` (kind code, flat float64 parameter block, gravity); the numpy dynamics
+:class:`ModelHandle` (kind code, per-joint float64 parameter table, gravity); the numpy dynamics
 API below is written once over that handle and :mod:`slidingarm.models._dispatch`, the one
 place that dispatches on the kind. A subclass supplies the parameter block and its kind, its
 own constructor, ``to_dict`` and the exports.
@@ -27,8 +27,9 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class ModelHandle:
-    """What compiled code needs of an arm: ``kind`` (a code of :mod:`._dispatch`), the flat
-    read-only float64 ``params`` block whose layout belongs to that kind, the gravity ``g``
+    """What compiled code needs of an arm: ``kind`` (a code of :mod:`._dispatch`), the
+    read-only float64 ``params`` table ``(rows, n)`` (one column per joint) whose rows belong
+    to that kind, the gravity ``g``
     (m/s²) and the number of joints ``n``."""
 
     kind: int
@@ -116,7 +117,7 @@ class ArmModel(ABC):
     @property
     @abstractmethod
     def params(self) -> FloatArray:
-        """The flat, read-only float64 parameter block of this model's kind."""
+        """The read-only ``(rows, n)`` float64 parameter table of this model's kind."""
 
     @abstractmethod
     def to_dict(self) -> dict[str, Any]:

@@ -276,10 +276,10 @@ class PlanarArm(ArmModel):
 
     @property
     def params(self) -> FloatArray:
-        """The planar kind's parameter block: ``[m; l; c; I]`` flattened row by row (read-only)."""
-        flat = self._packed.reshape(-1)
-        flat.setflags(write=False)
-        return flat
+        """The planar kind's parameter table ``[m; l; c; I]``, shape (4, n), read-only."""
+        block = self._packed.view()
+        block.setflags(write=False)
+        return block
 
     @property
     def packed(self) -> FloatArray:
