@@ -150,8 +150,10 @@ class Scenario(_Strict):
                     f"{here}.{key}",
                     f"{spec.name} has no gain {key}; its gains are {_gain_names(spec.name)}",
                 )
-        if spec.allow_nonterminal and spec.name not in ("tsmc", "ftsmc"):
-            raise self._fail(f"{here}.allow_nonterminal", "applies to tsmc and ftsmc only")
+        klass = _CONTROLLER_CLASSES[spec.name]
+        if spec.allow_nonterminal and not klass.TERMINAL:
+            terminal = " and ".join(n for n, c in _CONTROLLER_CLASSES.items() if c.TERMINAL)
+            raise self._fail(f"{here}.allow_nonterminal", f"applies to {terminal} only")
         if spec.width is not None and switching == "sign":
             raise self._fail(
                 f"{here}.width",
@@ -192,7 +194,8 @@ class Scenario(_Strict):
                     f"missing: {spec.name} ({here}) needs alpha (= lam), "
                     "the linear surface gain; set it in [gains] or on the controller",
                 )
-            kwargs["lam" if spec.name == "pdsmc" else "alpha"] = linear
+            assert klass.LINEAR_NAME is not None
+            kwargs[klass.LINEAR_NAME] = linear
         if "beta" in uses:
             kwargs["beta"] = pick("beta", True)
         if "exponent" in uses:
@@ -203,11 +206,11 @@ class Scenario(_Strict):
                     f"missing: {spec.name} ({here}) needs gamma (or p "
                     "and q); set it in [gains] or on the controller",
                 )
-            if spec.name == "ntsmc" and not spec.exponent() and "gamma" in exp:
+            if klass.EXPONENT_RANGE[0] >= 1.0 and not spec.exponent() and "gamma" in exp:
                 # shared gamma = q/p; the nonsingular surface's exponent is p/q = 1/gamma
                 exp = {"gamma": 1.0 / exp["gamma"]}
             kwargs.update(exp)
-            if spec.name in ("tsmc", "ftsmc"):
+            if klass.TERMINAL:
                 kwargs["allow_nonterminal"] = spec.allow_nonterminal
                 eps = pick("eps_e", False)
                 if eps is not None:

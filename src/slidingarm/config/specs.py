@@ -5,7 +5,7 @@ disturbances, gains and controllers. Each spec that is a library object builds i
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
     Field,
@@ -35,13 +35,8 @@ from slidingarm.config.values import (
     Vector,
     _Strict,
 )
-from slidingarm.control.controllers import (
-    FTSMC,
-    NTSMC,
-    PDSMC,
-    TSMC,
-    SlidingModeController,
-)
+from slidingarm.control.controllers import CONTROLLERS as CONTROLLER_CLASSES
+from slidingarm.control.controllers import SlidingModeController
 from slidingarm.disturbances import (
     ConstantTorque,
     Disturbance,
@@ -61,26 +56,20 @@ from slidingarm.sensors import (
     VelocityEstimator,
 )
 
-CONTROLLERS: dict[str, str] = {
-    "pdsmc": "PD sliding mode: s = ė + λe",
-    "tsmc": "terminal SMC: s = ė + β sig(e)^γ, 0 < γ < 1",
-    "ftsmc": "fast terminal SMC: s = ė + αe + β sig(e)^γ",
-    "ntsmc": "nonsingular terminal SMC (Feng et al. 2002): s = e + (1/β) sig(ė)^(p/q), 1 < p/q < 2",
-}
+if TYPE_CHECKING:
+    ControllerName = str
+else:
+    #: The names a scenario's controller may have: those of the controller classes.
+    ControllerName = Literal[tuple(CONTROLLER_CLASSES)]
 
-_CONTROLLER_CLASSES: dict[str, type[SlidingModeController]] = {
-    "pdsmc": PDSMC,
-    "tsmc": TSMC,
-    "ftsmc": FTSMC,
-    "ntsmc": NTSMC,
-}
+#: One line per controller a scenario can name (from the controller classes).
+CONTROLLERS: dict[str, str] = {name: cls.DESCRIPTION for name, cls in CONTROLLER_CLASSES.items()}
+
+_CONTROLLER_CLASSES: dict[str, type[SlidingModeController]] = CONTROLLER_CLASSES
 
 #: Which surface gains each controller takes ("linear" is alpha = lam, "exponent" gamma or p/q).
 _SURFACE_GAINS: dict[str, tuple[str, ...]] = {
-    "pdsmc": ("linear",),
-    "tsmc": ("beta", "exponent"),
-    "ftsmc": ("linear", "beta", "exponent"),
-    "ntsmc": ("beta", "exponent"),
+    name: cls.SURFACE_GAINS for name, cls in CONTROLLER_CLASSES.items()
 }
 
 
@@ -411,18 +400,22 @@ class _GainFields(_Strict):
         if not math.isfinite(v):
             raise ValueError(f"must be finite, got {v!r}")
         name = info.data.get("name")
-        if name == "ntsmc":
-            if not 1.0 < v < 2.0:
+        klass = CONTROLLER_CLASSES.get(name) if isinstance(name, str) else None
+        low, high = (0.0, 1.0) if klass is None else klass.EXPONENT_RANGE
+        if low >= 1.0:
+            if not low < v < high:
                 raise ValueError(
-                    f"must lie in (1, 2) for ntsmc (nonsingular: 1 < p/q < 2), got {v:.5g}"
+                    f"must lie in ({low:g}, {high:g}) for {name} (nonsingular: {low:g} < p/q < "
+                    f"{high:g}), got {v:.5g}"
                 )
         elif info.data.get("allow_nonterminal", False):
             if v <= 0:
                 raise ValueError(f"must be > 0, got {v:.5g}")
         elif not 0.0 < v < 1.0:
+            terminal = " or ".join(n for n, c in CONTROLLER_CLASSES.items() if c.TERMINAL)
             hint = (
-                "; the paper's p/q > 1 is not terminal (set allow_nonterminal = true on a tsmc "
-                "or ftsmc controller to measure it)"
+                "; the paper's p/q > 1 is not terminal (set allow_nonterminal = true on a "
+                f"{terminal} controller to measure it)"
                 if v >= 1.0
                 else ""
             )
@@ -482,7 +475,7 @@ class GainsSpec(_GainFields):
 class _ControllerHead(_Strict):
     """What a controller is (declared before its gains, whose validators read these)."""
 
-    name: Literal["pdsmc", "tsmc", "ftsmc", "ntsmc"] = Field(description="Controller type.")
+    name: ControllerName = Field(description="Controller type.")
     label: str | None = Field(
         default=None,
         pattern=_NAME_PATTERN,

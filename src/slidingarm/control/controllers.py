@@ -18,7 +18,7 @@ sat(s/ε)}, or the super-twisting one :math:`r = k_1\\mathrm{sig}(s)^{1/2} + w`,
 from __future__ import annotations
 
 import math
-from typing import Any, Literal, cast
+from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -40,6 +40,7 @@ from slidingarm.control.surfaces import (
 from slidingarm.models.base import ArmModel
 
 __all__ = [
+    "CONTROLLERS",
     "FTSMC",
     "NTSMC",
     "PDSMC",
@@ -98,6 +99,20 @@ class SlidingModeController(Controller):
     """
 
     name: str = "smc"
+
+    #: One line on the law, for listings (``slidingarm list``) and the config schema.
+    DESCRIPTION: ClassVar[str] = "sliding-mode control on a given surface"
+    #: Which surface gains the constructor takes: ``"linear"`` (:attr:`LINEAR_NAME`),
+    #: ``"beta"``, ``"exponent"`` (``gamma`` or ``p``, ``q``).
+    SURFACE_GAINS: ClassVar[tuple[str, ...]] = ()
+    #: The constructor's name of the linear surface gain, if it has one.
+    LINEAR_NAME: ClassVar[str | None] = None
+    #: Whether the surface has the singular term :math:`\beta\,\mathrm{sig}(e)^\gamma`
+    #: (``eps_e`` guards it; ``allow_nonterminal`` may admit :math:`\gamma \ge 1`).
+    TERMINAL: ClassVar[bool] = False
+    #: The exponent's open range: ``(0, 1)`` for terminal surfaces, ``(1, 2)`` for the
+    #: nonsingular one (whose exponent is :math:`p/q`, the reciprocal of :math:`\gamma = q/p`).
+    EXPONENT_RANGE: ClassVar[tuple[float, float]] = (0.0, 1.0)
 
     def __init__(
         self,
@@ -496,6 +511,9 @@ class PDSMC(SlidingModeController):
     """
 
     name = "pdsmc"
+    DESCRIPTION = "PD sliding mode: s = ė + λe"
+    SURFACE_GAINS = ("linear",)
+    LINEAR_NAME = "lam"
 
     def __init__(
         self,
@@ -552,6 +570,9 @@ class TSMC(SlidingModeController):
     """
 
     name = "tsmc"
+    DESCRIPTION = "terminal SMC: s = ė + β sig(e)^γ, 0 < γ < 1"
+    SURFACE_GAINS = ("beta", "exponent")
+    TERMINAL = True
 
     def __init__(
         self,
@@ -594,6 +615,10 @@ class FTSMC(SlidingModeController):
     """
 
     name = "ftsmc"
+    DESCRIPTION = "fast terminal SMC: s = ė + αe + β sig(e)^γ"
+    SURFACE_GAINS = ("linear", "beta", "exponent")
+    LINEAR_NAME = "alpha"
+    TERMINAL = True
 
     def __init__(
         self,
@@ -638,6 +663,9 @@ class NTSMC(SlidingModeController):
     """
 
     name = "ntsmc"
+    DESCRIPTION = "nonsingular terminal SMC (Feng et al. 2002): s = e + (1/β) sig(ė)^(p/q), 1 < p/q < 2"
+    SURFACE_GAINS = ("beta", "exponent")
+    EXPONENT_RANGE = (1.0, 2.0)
 
     def __init__(
         self,
@@ -663,3 +691,10 @@ class NTSMC(SlidingModeController):
     def _surface_params(self) -> dict[str, Any]:
         d = self._surface.to_dict()
         return {"beta": d["beta"], "gamma": d["gamma"]}
+
+
+#: The named sliding-mode controllers by :attr:`~SlidingModeController.name`: the one table
+#: from which scenario files, listings and the studies look a controller up.
+CONTROLLERS: dict[str, type[SlidingModeController]] = {
+    cls.name: cls for cls in (PDSMC, TSMC, FTSMC, NTSMC)
+}

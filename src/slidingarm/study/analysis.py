@@ -17,7 +17,13 @@ import pandas as pd
 
 from slidingarm import metrics
 from slidingarm.config import ControllerSpec, Scenario, Setup
-from slidingarm.control.controllers import FTSMC, PDSMC, TSMC, SlidingModeController
+from slidingarm.control.controllers import (
+    CONTROLLERS,
+    FTSMC,
+    PDSMC,
+    TSMC,
+    SlidingModeController,
+)
 from slidingarm.control.surfaces import (
     DEFAULT_EPS_E,
     ftsm_convergence_time,
@@ -218,10 +224,11 @@ def _terminal_gain_params(result: SimResult) -> tuple[np.ndarray, float, float] 
     params = result.params.get("controller", {})
     if not isinstance(params, Mapping) or "beta" not in params or "gamma" not in params:
         return None
-    # NTSMC's terminal term is on ė, not e; a bare controller names its surface
-    if params.get("controller") == "ntsmc" or params.get("surface", "fast_terminal") != (
-        "fast_terminal"
-    ):
+    # a terminal term on e (TSMC, FTSMC; NTSMC's is on ė); a bare controller names its surface
+    klass = CONTROLLERS.get(str(params.get("controller")))
+    if klass is not None and not klass.TERMINAL:
+        return None
+    if params.get("surface", "fast_terminal") != "fast_terminal":
         return None
     beta = _per_joint(params["beta"], result.n)
     if not np.any(beta > 0):
