@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from slidingarm.control._dispatch import FunctionPointer
     from slidingarm.models.base import ArmModel
 
-__all__ = ["Controller", "LawHandle"]
+__all__ = ["Controller", "LawHandle", "checked_inputs"]
 
 FloatArray = NDArray[np.float64]
 
@@ -38,6 +38,20 @@ class LawHandle:
     state_size: int
     kernel: FunctionPointer
     entry: FunctionPointer
+
+
+def checked_inputs(n: int, **inputs: ArrayLike) -> list[FloatArray]:
+    """The inputs of :meth:`Controller.evaluate` as C-contiguous float64 arrays (n,), in the
+    order given; ``ValueError`` naming the first of the wrong shape or not finite."""
+    arrays = []
+    for name, v in inputs.items():
+        a = np.ascontiguousarray(np.asarray(v, dtype=np.float64))
+        if a.shape != (n,):
+            raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} must be finite (no NaN or inf)")
+        arrays.append(a)
+    return arrays
 
 
 class Controller(ABC):

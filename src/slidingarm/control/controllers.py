@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from slidingarm._validate import ParameterTypeError
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
-from slidingarm.control.base import Controller, LawHandle
+from slidingarm.control.base import Controller, LawHandle, checked_inputs
 from slidingarm.control.surfaces import (
     DEFAULT_EPS_E,
     FastTerminal,
@@ -441,20 +441,7 @@ class SlidingModeController(Controller):
             state whose torque overflows float64.
         """
         n = self.n
-        arrays = []
-        for name, v in (
-            ("q", q),
-            ("qd", qd),
-            ("q_ref", q_ref),
-            ("qd_ref", qd_ref),
-            ("qdd_ref", qdd_ref),
-        ):
-            a = np.ascontiguousarray(np.asarray(v, dtype=np.float64))
-            if a.shape != (n,):
-                raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"{name} must be finite (no NaN or inf)")
-            arrays.append(a)
+        arrays = checked_inputs(n, q=q, qd=qd, q_ref=q_ref, qd_ref=qd_ref, qdd_ref=qdd_ref)
         if self.stateful:
             if dt is None or not (math.isfinite(dt) and dt > 0):
                 raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")

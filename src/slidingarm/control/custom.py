@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from slidingarm._validate import ParameterTypeError
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
-from slidingarm.control.base import Controller, LawHandle
+from slidingarm.control.base import Controller, LawHandle, checked_inputs
 from slidingarm.models.base import ArmModel
 
 __all__ = ["CustomController"]
@@ -277,14 +277,7 @@ class CustomController(Controller):
             On a wrong shape, a non-finite input, or a non-finite torque or ``s``.
         """
         n = self.n
-        arrays = []
-        for name, v in (("q", q), ("qd", qd), ("q_ref", q_ref), ("qd_ref", qd_ref), ("qdd_ref", qdd_ref)):
-            a = np.ascontiguousarray(np.asarray(v, dtype=np.float64))
-            if a.shape != (n,):
-                raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"{name} must be finite (no NaN or inf)")
-            arrays.append(a)
+        arrays = checked_inputs(n, q=q, qd=qd, q_ref=q_ref, qd_ref=qd_ref, qdd_ref=qdd_ref)
         if not math.isfinite(t):
             raise ValueError(f"t must be finite, got {t!r}")
         tau, s = np.zeros(n), np.zeros(n)
