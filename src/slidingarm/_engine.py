@@ -229,8 +229,8 @@ def run_one(
     pp: np.ndarray,
     pg: float,
     law_code: int,
-    entry: Any,
-    kernel: Any,
+    entry_address: int,
+    kernel_address: int,
     lp: np.ndarray,
     lstate: np.ndarray,
     mkind: int,
@@ -261,13 +261,15 @@ def run_one(
     workspace: np.ndarray,
 ) -> None:
     """One closed-loop run of a compiled plant ``(pkind, pp, pg)`` under the law ``(law_code,
-    entry, kernel, lp, lstate)`` with nominal model ``(mkind, mp, mg)``; see the module docstring.
+    entry, kernel, lp, lstate)`` (the two functions given by their addresses) with nominal model ``(mkind, mp, mg)``; see the module docstring.
 
     Shapes: ``q0, qd0, tmax`` (n,); ``tgrid`` (T,); ``q_ref, qd_ref, qdd_ref, madd, mhold,
     dist`` and the outputs (T, n); ``vfb`` (NVF, n); ``status`` (3,) receives ``[code,
     sample, joint]`` of the first failure (code 0: none; the outputs after it are not
     written); ``workspace`` is ``(workspace_rows(n), n)``.
     """
+    entry = LD.entry_at(entry_address)
+    kernel = LD.kernel_at(kernel_address)
     nt = q_b.shape[0]
     n = q_b.shape[1]
     h = dt / substeps
@@ -335,8 +337,8 @@ def control_step(
     t_k: float,
     dt: float,
     law_code: int,
-    entry: Any,
-    kernel: Any,
+    entry_address: int,
+    kernel_address: int,
     lp: np.ndarray,
     lstate: np.ndarray,
     mkind: int,
@@ -361,7 +363,7 @@ def control_step(
 ) -> int:
     """:func:`control_sample` for the Python-stepped loop; returns its bad joint (-1: none)."""
     bad, _exact = control_sample(
-        k, t_k, dt, law_code, entry, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode, vfb,
+        k, t_k, dt, law_code, LD.entry_at(entry_address), LD.kernel_at(kernel_address), lp, lstate, mkind, mp, mg, madd, mhold, vcode, vfb,
         q_ref, qd_ref, qdd_ref, tmax, db, ws, q_b, qd_b, qm_b, qdm_b, tau_b, s_b,
     )  # fmt: skip
     return bad

@@ -282,7 +282,7 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
             continue
         ph = plant.handle
         E.run_one(
-            ph.kind, np.array(ph.params), ph.g, law.code, law.entry, law.kernel, lp, lstate, model.kind,
+            ph.kind, np.array(ph.params), ph.g, law.code, law.entry.address, law.kernel.address, lp, lstate, model.kind,
             mp, model.g, q0, qd0, t, qr, qdr, qddr, madd, mhold, int(vcode), vf, dist,
             tmax, plan.dt, plan.substeps, plan.qd_limit, *outs, status[i], workspace,
         )  # fmt: skip
@@ -327,7 +327,7 @@ def _run_stepped(
     status[:] = (E.STATUS_OK, -1, -1)
     for k in range(nt):
         bad = E.control_step(
-            k, t[k], dt, law.code, law.entry, law.kernel, lp, lstate, model.kind, mp, model.g, madd, mhold, vcode, vf, qr, qdr, qddr, tmax, dist, ws, *outs,
+            k, t[k], dt, law.code, law.entry.address, law.kernel.address, lp, lstate, model.kind, mp, model.g, madd, mhold, vcode, vf, qr, qdr, qddr, tmax, dist, ws, *outs,
         )  # fmt: skip
         if bad >= 0:
             status[:] = (E.STATUS_NONFINITE, k, bad)

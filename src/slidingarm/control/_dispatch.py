@@ -24,7 +24,9 @@ from typing import Any
 
 import numpy as np
 from numba import njit, types
+from numba.core import cgutils
 from numba.core.types.function_type import WrapperAddressProtocol
+from numba.extending import intrinsic
 
 from slidingarm.control import _kernels as CK
 from slidingarm.models import _dispatch as MD
@@ -70,11 +72,47 @@ class FunctionPointer(WrapperAddressProtocol):
     def __wrapper_address__(self) -> int:
         return self._address
 
+    @property
+    def address(self) -> int:
+        """The address of the function's C wrapper: what the loop takes (an int64 unboxes in
+        nanoseconds, this object in about 17 µs), made a function again by :func:`kernel_at`
+        or :func:`entry_at`. Valid while the function lives (this object holds it)."""
+        return self._address
+
     def signature(self) -> Any:
         return self._signature
 
     def __reduce__(self) -> tuple[Any, ...]:
         return (FunctionPointer, (self.function, self._signature))
+
+
+def _function_at(fnty: Any) -> Any:
+    """An intrinsic turning an int64 address of a C wrapper of signature ``fnty`` into a
+    first-class function of that type (what numba builds when it unboxes a pointer object,
+    without the Python calls)."""
+
+    @intrinsic
+    def at(typingctx, addr):  # type: ignore[no-untyped-def]
+        if not isinstance(addr, types.Integer):
+            return None
+
+        def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+            sfunc = cgutils.create_struct_proxy(fnty)(context, builder)
+            voidptr = context.get_value_type(types.voidptr)
+            sfunc.c_addr = builder.inttoptr(args[0], voidptr)
+            sfunc.py_addr = cgutils.get_null_value(voidptr)
+            sfunc.jit_addr = cgutils.get_null_value(voidptr)
+            return sfunc._getvalue()
+
+        return fnty(addr), codegen
+
+    return at
+
+
+#: ``kernel_at(address)``: the kernel at an address (:attr:`FunctionPointer.address`).
+kernel_at = _function_at(KERNEL_TYPE)
+#: ``entry_at(address)``: the entry at an address (:attr:`FunctionPointer.address`).
+entry_at = _function_at(ENTRY_TYPE)
 
 
 @njit(cache=True, nogil=True)
@@ -217,8 +255,8 @@ def control_once(
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def control_once_entry(
-    entry: Any,
-    kernel: Any,
+    entry_address: int,
+    kernel_address: int,
     p: np.ndarray,
     mkind: int,
     mparams: np.ndarray,
@@ -234,10 +272,11 @@ def control_once_entry(
     s_out: np.ndarray,
     scratch: np.ndarray,
 ) -> None:
-    """:func:`control_once` for a law reached through ``entry`` (the paper's)."""
+    """:func:`control_once` for a law reached through an entry (the paper's), given the
+    entry's and kernel's addresses."""
     n = q.shape[0]
     CK.control_into(
-        entry, kernel, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,
+        entry_at(entry_address), kernel_at(kernel_address), p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,
         tau_out, s_out, scratch[CK.CONTROL_WORK_ROWS : CK.CONTROL_WORK_ROWS + 2 * n],
         scratch[: CK.CONTROL_WORK_ROWS],
     )  # fmt: skip

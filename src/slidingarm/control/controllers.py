@@ -409,7 +409,7 @@ class SlidingModeController(Controller):
         kernel, _null = LD.null_pointers()
         q, qd, q_ref, qd_ref, qdd_ref = (np.array(a, dtype=np.float64) for a in args[:5])
         LD.control_once_entry(
-            LD.paper_pointer(), kernel, np.array(self._p), self._mkind, np.array(self._mparams),
+            LD.paper_pointer().address, kernel.address, np.array(self._p), self._mkind, np.array(self._mparams),
             self._g, q, qd, q_ref, qd_ref, qdd_ref, self._state, dt, tau, s, self._scratch,
         )  # fmt: skip
 
