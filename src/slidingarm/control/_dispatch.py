@@ -1,12 +1,13 @@
 """The one place that dispatches on a control law's kind (compiled), and the custom-kernel ABI.
 
 A control law reaches compiled code as a *law handle*: an integer ``code``, a float64
-parameter vector private to the law, a state size, and two first-class function pointers
-(:class:`FunctionPointer`). Built-in sliding-mode laws are ``LAW_SLIDING_MODE`` and never call
-the pointers (they carry pointers to :func:`null_kernel` and :func:`null_entry`, so that one
-compiled loop serves every law). A :class:`~slidingarm.control.custom.CustomController` is
-``LAW_CUSTOM``: the loop calls ``entry(kernel, ...)``, where :func:`custom_entry` computes the
-nominal model's ``M`` and ``h`` and calls the user's kernel:
+parameter vector private to the law, a state size, and two first-class functions, passed to
+the loop as the addresses of :class:`FunctionPointer` objects. Built-in sliding-mode laws are
+``LAW_SLIDING_MODE`` and call neither, unless the paper's law is reached through ``entry``
+(they carry :data:`NULL`, address 0, so that one compiled loop serves every law). A
+:class:`~slidingarm.control.custom.CustomController` is ``LAW_CUSTOM``: the loop calls
+``entry(kernel, ...)``, where :func:`custom_entry` computes the nominal model's ``M`` and ``h``
+and calls the user's kernel:
 
 .. code-block:: text
 
@@ -115,14 +116,29 @@ kernel_at = _function_at(KERNEL_TYPE)
 entry_at = _function_at(ENTRY_TYPE)
 
 
+class NullPointer:
+    """The pointer built-in laws carry where a function goes: address 0, never called (the
+    sliding-mode branch does not call it). Nothing to compile."""
+
+    address = 0
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (NullPointer, ())
+
+
+#: The one :class:`NullPointer`.
+NULL = NullPointer()
+
+
 @njit(cache=True, nogil=True)
 def null_kernel(t, q, qd, q_ref, qd_ref, qdd_ref, M, h, params, state, tau, s):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """The kernel pointer built-in laws carry: never called."""
+    """The kernel :func:`control_once` passes: never called."""
 
 
 @njit(cache=True, nogil=True)
 def null_entry(kernel, t, lp, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau, s, mats, work):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """The entry pointer built-in laws carry: never called."""
+    """The entry :func:`control_once` passes (statically, so that inputs of any array type
+    are accepted): never called, the model law does not reach it."""
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -155,17 +171,8 @@ def custom_entry(
     kernel(t, q, qd, q_ref, qd_ref, qdd_ref, mmat, h, lp, state, tau_out, s_out)
 
 
-_NULL: tuple[FunctionPointer, FunctionPointer] | None = None
 _ENTRY: FunctionPointer | None = None
 _PAPER: FunctionPointer | None = None
-
-
-def null_pointers() -> tuple[FunctionPointer, FunctionPointer]:
-    """The (shared) ``(kernel, entry)`` pointers of built-in laws."""
-    global _NULL
-    if _NULL is None:
-        _NULL = (FunctionPointer(null_kernel), FunctionPointer(null_entry, ENTRY_SIGNATURE))
-    return _NULL
 
 
 def entry_pointer() -> FunctionPointer:

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 if TYPE_CHECKING:
-    from slidingarm.control._dispatch import FunctionPointer
+    from slidingarm.control._dispatch import FunctionPointer, NullPointer
     from slidingarm.models.base import ArmModel
 
 __all__ = ["Controller", "LawHandle", "checked_inputs"]
@@ -36,8 +36,8 @@ class LawHandle:
     code: int
     params: FloatArray
     state_size: int
-    kernel: FunctionPointer
-    entry: FunctionPointer
+    kernel: FunctionPointer | NullPointer
+    entry: FunctionPointer | NullPointer
 
 
 def checked_inputs(n: int, **inputs: ArrayLike) -> list[FloatArray]:

@@ -224,10 +224,8 @@ class SlidingModeController(Controller):
     @property
     def handle(self) -> LawHandle:
         """The law for compiled code: the sliding-mode kind, its parameter vector."""
-        kernel, entry = LD.null_pointers()
-        if self._law == "paper":
-            entry = LD.paper_pointer()
-        return LawHandle(LD.LAW_SLIDING_MODE, self._p, self.state_size, kernel, entry)
+        entry = LD.paper_pointer() if self._law == "paper" else LD.NULL
+        return LawHandle(LD.LAW_SLIDING_MODE, self._p, self.state_size, LD.NULL, entry)
 
     @property
     def state_size(self) -> int:
@@ -406,10 +404,9 @@ class SlidingModeController(Controller):
         """The Python call of the paper's law, through its pointer (writable copies: the
         pointer's argument types)."""
         dt, tau, s = args[5:]
-        kernel, _null = LD.null_pointers()
         q, qd, q_ref, qd_ref, qdd_ref = (np.array(a, dtype=np.float64) for a in args[:5])
         LD.control_once_entry(
-            LD.paper_pointer().address, kernel.address, np.array(self._p), self._mkind, np.array(self._mparams),
+            LD.paper_pointer().address, LD.NULL.address, np.array(self._p), self._mkind, np.array(self._mparams),
             self._g, q, qd, q_ref, qd_ref, qdd_ref, self._state, dt, tau, s, self._scratch,
         )  # fmt: skip
 
