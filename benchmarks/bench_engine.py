@@ -21,6 +21,10 @@ warm within each turn).
    ``--quick`` also a first call that compiles from an empty cache.
 6. ``import slidingarm`` in fresh processes, and the heavy packages it imports eagerly.
 7. ``simulate_batch`` throughput, on all threads and on one.
+8. A custom compiled law against the built-in law it re-implements (PDSMC with tanh, kernel
+   in ``_custom_pdsmc.py``): the cost ratio (target <= 1.5x) and their difference.
+9. What the sin/cos hand-off from the law to the plant's first RK4 stage is worth: the loop
+   compiled again with ``_engine.REUSE_KINEMATICS`` off, against the loop.
 
 ``--cold`` measures only the compilation from an empty cache: three fresh processes, each with
 its own empty ``NUMBA_CACHE_DIR``, and the median of their first ``simulate`` (which follows a
