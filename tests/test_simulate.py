@@ -355,6 +355,8 @@ def test_validation(kwargs: dict[str, Any], match: str) -> None:
         ({"q0": "0.1 0.2 0.3"}, r"^q0 must be numbers, got str"),
         ({"q0": {0.1, 0.2, 0.3}}, r"^q0 must be numbers, got set"),
         ({"qd_limit": "1e4"}, r"^qd_limit must be a number \(rad/s\), got '1e4'$"),
+        ({"qd_limit": None}, r"^qd_limit must be a number \(rad/s\), got None$"),
+        ({"q0": None}, r"^q0 must be numbers, got NoneType None$"),
         ({"plant": "paper"}, r"^plant must be an arm model \(PlanarArm, \.\.\.\) or a SteppedPlant, got str$"),
         ({"controller": None}, r"^controller must be a Controller, got NoneType$"),
         ({"sensor": GaussianNoise(0.1)}, r"^sensor must be a Sensor \(or a sequence of them\), got GaussianNoise$"),
@@ -367,6 +369,23 @@ def test_validation(kwargs: dict[str, Any], match: str) -> None:
 def test_wrong_types_raise_type_error(kwargs: dict[str, Any], match: str) -> None:
     with pytest.raises(TypeError, match=match):
         _sim(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"t_final": 10**400}, r"^t_final must be a finite duration > 0 s"),
+        ({"dt": 10**400}, r"^dt must be a finite sample time > 0 s"),
+        ({"q0": [10**400, 0, 0]}, r"^q0 must be finite$"),
+        ({"qd_limit": 10**400}, r"^qd_limit must be a finite speed > 0 rad/s"),
+        ({"substeps": 10**20}, r"^substeps must be at most 1,000,000 RK4 steps per sample, got 100000000000000000000$"),
+    ],
+)
+def test_integers_beyond_float_are_values_out_of_range(kwargs: dict[str, Any], match: str) -> None:
+    """Never an OverflowError: an integer beyond the float range is an infinite value."""
+    with pytest.raises(ValueError, match=match) as info:
+        _sim(**kwargs)
+    assert not isinstance(info.value, TypeError)
 
 
 def test_batch_seeds_reject_bytes_and_booleans() -> None:

@@ -28,7 +28,7 @@ from numba import config
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm import _engine as E
-from slidingarm._validate import ParameterTypeError, has_bool
+from slidingarm._validate import ParameterTypeError, _float, number_array
 from slidingarm._version import __version__
 from slidingarm.control.base import Controller
 from slidingarm.disturbances import (
@@ -59,6 +59,9 @@ FloatArray = NDArray[np.float64]
 
 #: A run whose joint speed exceeds this (rad/s) is declared diverged.
 DEFAULT_QD_LIMIT = 1e4
+
+#: More RK4 steps per sample than this is refused (a run would take days).
+MAX_SUBSTEPS = 1_000_000
 
 #: Runs per chunk: the unit of work of a thread, and of the bounded working set of
 #: ``record="metrics"`` (a chunk's full traces live only while its metrics are computed).
@@ -109,8 +112,8 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
             v, int | float | np.integer | np.floating
         ):
             raise ParameterTypeError(f"{name} must be a number (s), got {type(v).__name__} {v!r}")
-    tf = float(t_final)
-    h = float(dt)
+    tf = _float(t_final)
+    h = _float(dt)
     if not (math.isfinite(h) and h > 0):
         raise ValueError(f"dt must be a finite sample time > 0 s, got {dt!r}")
     if not (math.isfinite(tf) and tf > 0):
@@ -122,12 +125,12 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
 
 
 def _numbers(name: str, value: Any) -> FloatArray:
-    if isinstance(value, str | bytes | set | frozenset | dict) or has_bool(value):
-        raise ParameterTypeError(f"{name} must be numbers, got {type(value).__name__} {value!r}")
-    try:
-        return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ParameterTypeError(f"{name} must be numbers, got {value!r}") from exc
+    """``value`` as a float64 array; ``ParameterTypeError`` for anything but numbers (an
+    integer beyond the float range becomes ±inf, which the callers refuse as not finite)."""
+    kind = type(value).__name__
+    if value is None or isinstance(value, set | frozenset | dict):
+        raise ParameterTypeError(f"{name} must be numbers, got {kind} {value!r}")
+    return number_array(name, value, message=f"{name} must be numbers, got {kind} {value!r}")
 
 
 def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
@@ -425,9 +428,15 @@ def simulate_batch(
         raise ParameterTypeError(f"substeps must be an integer >= 1, got {substeps!r}")
     if substeps < 1:
         raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
-    if isinstance(qd_limit, str | bytes | bool | np.bool_):
+    if substeps > MAX_SUBSTEPS:
+        raise ValueError(
+            f"substeps must be at most {MAX_SUBSTEPS:,} RK4 steps per sample, got {substeps!r}"
+        )
+    if isinstance(qd_limit, str | bytes | bool | np.bool_) or not isinstance(
+        qd_limit, int | float | np.integer | np.floating
+    ):
         raise ParameterTypeError(f"qd_limit must be a number (rad/s), got {qd_limit!r}")
-    if not (math.isfinite(qd_limit) and qd_limit > 0):
+    if not (math.isfinite(_float(qd_limit)) and qd_limit > 0):
         raise ValueError(f"qd_limit must be a finite speed > 0 rad/s, got {qd_limit!r}")
     sensors = [Sensor()] if sensor is None else _listify("sensor", sensor, Sensor, "a Sensor")
     dists = _disturbance_lists(disturbances)

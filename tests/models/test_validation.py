@@ -268,3 +268,23 @@ def test_equal_arms_hash_equal() -> None:
     assert PlanarArm.paper() != PlanarArm.paper("rod")
     assert PlanarArm.paper() != PlanarArm(M3, L3, gravity=9.8)
     assert PlanarArm.paper() != "not an arm"
+
+
+def test_arm_numbers_are_numbers() -> None:
+    """Booleans and strings are type errors; integers beyond the float range are values out
+    of range, never an OverflowError."""
+    with pytest.raises(TypeError, match=r"^gravity must be a number, got True$"):
+        PlanarArm([1.0], [1.0], gravity=True)
+    with pytest.raises(TypeError, match=r"^masses must be a sequence of numbers, got '1 2 3'$"):
+        ARM.replace(masses="1 2 3")
+    with pytest.raises(TypeError, match=r"^payload mass must be a number \(kg\), got '1'$"):
+        ARM.with_payload("1")  # type: ignore[arg-type]
+    for call, match in [
+        (lambda: PlanarArm([1.0], [1.0], gravity=10**400), r"^gravity must be a finite value"),
+        (lambda: ARM.with_payload(10**400), r"^payload mass must be a finite value"),
+        (lambda: PlanarArm([10**400], [1.0]), r"^masses must be finite, got \[inf\]$"),
+        (lambda: ARM.mass_matrix([10**400, 0, 0]), r"^q must be finite \(no NaN or inf\)$"),
+    ]:
+        with pytest.raises(ValueError, match=match) as info:
+            call()
+        assert not isinstance(info.value, TypeError)

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from slidingarm._validate import ParameterTypeError, has_bool
+from slidingarm._validate import ParameterTypeError, number_array
 from slidingarm.models import _dispatch as D
 
 __all__ = ["ArmModel", "ModelHandle"]
@@ -131,14 +131,10 @@ class ArmModel(ABC):
     # ------------------------------------------------------------------ input handling
     def _state(self, name: str, value: ArrayLike) -> tuple[FloatArray, bool]:
         """``value`` as a C-contiguous ``(B, n)`` array and whether it was one state."""
-        if isinstance(value, str | bytes | set | frozenset | dict) or has_bool(value):
-            raise ParameterTypeError(
-                f"{name} must be an array of numbers, got {type(value).__name__} {value!r}"
-            )
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ParameterTypeError(f"{name} must be an array of numbers, got {value!r}") from exc
+        message = f"{name} must be an array of numbers, got {type(value).__name__} {value!r}"
+        if value is None or isinstance(value, set | frozenset | dict):
+            raise ParameterTypeError(message)
+        arr = number_array(name, value, message=message)
         n = self.n
         if arr.ndim == 1 and arr.shape[0] == n:
             single = True

@@ -18,6 +18,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._validate import ParameterTypeError, _float, is_real, number_array
 from slidingarm.models import _dispatch as D
 from slidingarm.models.base import ArmModel
 
@@ -37,11 +38,11 @@ def _num(x: float) -> str:
 
 
 def _vector(name: str, value: ArrayLike, n: int | None) -> FloatArray:
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a sequence of numbers, got {value!r}") from exc
-    arr = np.atleast_1d(arr)
+    if value is None or isinstance(value, set | frozenset | dict):
+        raise ParameterTypeError(f"{name} must be a sequence of numbers, got {value!r}")
+    arr = np.atleast_1d(
+        number_array(name, value, message=f"{name} must be a sequence of numbers, got {value!r}")
+    )
     if arr.ndim != 1:
         raise ValueError(
             f"{name} must be one-dimensional (one value per link), got shape {arr.shape}"
@@ -123,10 +124,9 @@ class PlanarArm(ArmModel):
             inert = _vector("inertia", inertia, n)
             if np.any(inert < 0):
                 raise ValueError(f"inertia must be >= 0 kg m², got {inert.tolist()}")
-        try:
-            g = float(gravity)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"gravity must be a number, got {gravity!r}") from exc
+        if not is_real(gravity):
+            raise ParameterTypeError(f"gravity must be a number, got {gravity!r}")
+        g = _float(gravity)
         if not np.isfinite(g) or g < 0:
             raise ValueError(f"gravity must be a finite value >= 0 m/s², got {gravity!r}")
         idle = np.flatnonzero((c == 0) & (inert == 0))
@@ -196,7 +196,9 @@ class PlanarArm(ArmModel):
         parallel-axis theorem: :math:`m' = m + p`, :math:`c' = (m c + p l)/m'`,
         :math:`I' = I + m(c - c')^2 + p(l - c')^2`.
         """
-        p = float(mass)
+        if not is_real(mass):
+            raise ParameterTypeError(f"payload mass must be a number (kg), got {mass!r}")
+        p = _float(mass)
         if not np.isfinite(p) or p < 0:
             raise ValueError(f"payload mass must be a finite value >= 0 kg, got {mass!r}")
         m, ln, c, inert = (
