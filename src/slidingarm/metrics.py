@@ -27,6 +27,7 @@ SPEC §6 (definitions); paper ``paper/000_764c5ab0732d16dd.txt`` (MSE table, fin
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -57,6 +58,7 @@ __all__ = [
     "late_metrics",
     "late_start",
     "max_step",
+    "metric_frame",
     "mse",
     "peak_torque",
     "reaching_time",
@@ -857,7 +859,6 @@ def summary(
         signed ``final_error`` can cancel across joints (``steady_state_error`` holds the
         magnitudes).
     """
-    import pandas as pd
 
     t = np.asarray(result.t, dtype=np.float64)
     e = np.asarray(result.q, dtype=np.float64) - np.asarray(result.q_ref, dtype=np.float64)
@@ -871,14 +872,35 @@ def summary(
     batched = e.ndim == 3
     if not batched:
         table = {k: v[None, :] for k, v in table.items()}
-    n_runs, n = table["mse"].shape
+    return metric_frame(table, runs=batched)
+
+
+def metric_frame(table: Mapping[str, FloatArray], *, runs: bool = True) -> pd.DataFrame:
+    """The table of :func:`summary` from per-run, per-joint metric values.
+
+    Parameters
+    ----------
+    table : mapping
+        For every name of :data:`METRIC_COLUMNS`, an array ``(B, n)``.
+    runs : bool
+        Lead with the integer column ``run`` (a batch's table).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``B (n + 1)`` rows, run-major: ``run`` (if ``runs``), ``joint`` (``"1"`` … ``"n"``,
+        ``"mean"``), then :data:`METRIC_COLUMNS`; the ``mean`` row is the mean over joints.
+    """
+    import pandas as pd
+
+    n_runs, n = np.shape(table["mse"])
     labels = [str(j + 1) for j in range(n)] + ["mean"]
     columns: dict[str, Any] = {}
-    if batched:
+    if runs:
         columns["run"] = np.repeat(np.arange(n_runs), n + 1)
     columns["joint"] = labels * n_runs
     for name in METRIC_COLUMNS:
-        values = table[name]
+        values = np.asarray(table[name], dtype=np.float64)
         with_mean = np.concatenate([values, np.mean(values, axis=-1, keepdims=True)], axis=-1)
         columns[name] = with_mean.reshape(-1)
     return pd.DataFrame(columns)

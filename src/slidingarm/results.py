@@ -450,9 +450,7 @@ class BatchResult:
         With ``record="full"`` computed from the kept signals; otherwise the values computed
         from the full traces while the batch ran.
         """
-        import pandas as pd
-
-        from slidingarm.metrics import METRIC_COLUMNS
+        from slidingarm.metrics import metric_frame
 
         if self.metric_values is None:
             self._traces()
@@ -461,16 +459,7 @@ class BatchResult:
             values = metric_values(self.t, self.q - self.q_ref, self.s, self.tau, ~self.ok)
         else:
             values = self.metric_values
-        nb, n = next(iter(values.values())).shape
-        columns: dict[str, Any] = {
-            "run": np.repeat(np.arange(nb), n + 1),
-            "joint": ([str(j + 1) for j in range(n)] + ["mean"]) * nb,
-        }
-        for name in METRIC_COLUMNS:
-            v = values[name]
-            with_mean = np.concatenate([v, np.mean(v, axis=-1, keepdims=True)], axis=-1)
-            columns[name] = with_mean.reshape(-1)
-        return pd.DataFrame(columns)
+        return metric_frame(values)
 
     # ------------------------------------------------------------------ export
     def runs(self) -> pd.DataFrame:

@@ -205,3 +205,49 @@ def test_metrics_mode_memory_does_not_grow_with_the_batch() -> None:
     full = 6 * 128 * 2001 * 3 * 8
     assert large < 1.3 * small + 2e6
     assert large < full / 2
+
+
+def test_per_run_inputs_name_their_mistakes() -> None:
+    kw = dict(q0=sa.PAPER_Q0, t_final=0.01, dt=DT)
+    with pytest.raises(TypeError, match=r"^disturbances must be torque disturbances .*got str"):
+        sa.simulate_batch(ARM, ftsmc(), REF, disturbances=[[sa.ConstantTorque(1.0)], ["x"]], **kw)
+    with pytest.raises(TypeError, match=r"^torque_limit must be numbers, got str 'a'$"):
+        sa.simulate_batch(ARM, ftsmc(), REF, torque_limit=[None, "a"], **kw)
+    with pytest.raises(ValueError, match=r"^torque_limit must be > 0 N m"):
+        sa.simulate_batch(ARM, ftsmc(), REF, torque_limit=[None, -1.0], **kw)
+    with pytest.raises(TypeError, match=r"^sensor must be a Sensor \(or a sequence of them\), got int$"):
+        sa.simulate_batch(ARM, ftsmc(), REF, sensor=[sa.Sensor(), 3], **kw)
+    with pytest.raises(ValueError, match=r"batch sizes differ: .*sensors 2, .*seeds 3"):
+        sa.simulate_batch(ARM, ftsmc(), REF, sensor=[sa.Sensor()] * 2, seeds=[1, 2, 3], **kw)
+
+
+class _Stuck(sa.SteppedPlant):
+    """A Python plant whose mass matrix goes singular at its third step."""
+
+    def __init__(self) -> None:
+        self.inner = sa.SteppedArm(ARM)
+        self.calls = 0
+
+    @property
+    def n(self) -> int:
+        return 3
+
+    def step(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray, h: float) -> bool:
+        self.calls += 1
+        return self.calls < 3 and self.inner.step(q, qd, tau, h)
+
+    def to_dict(self) -> dict[str, object]:
+        return {"stuck": True}
+
+
+def test_a_stepped_plant_that_fails_is_reported_as_singular() -> None:
+    r = sa.simulate(_Stuck(), ftsmc(), REF, q0=sa.PAPER_Q0, t_final=0.01, dt=DT, throw=False)
+    assert r.status == "singular" and "positive definite" in r.message
+    assert np.all(np.isnan(r.q[3:])) and not np.any(np.isnan(r.q[:3]))
+
+
+def test_the_checker_refuses_what_is_not_a_controller_or_a_model() -> None:
+    with pytest.raises(TypeError, match=r"^controller must be a Controller, got str$"):
+        sa.check_controller("ftsmc", ARM)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"^model must be an ArmModel, got NoneType$"):
+        sa.check_controller(ftsmc(), None)  # type: ignore[arg-type]

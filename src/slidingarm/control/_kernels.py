@@ -76,11 +76,6 @@ def pack(ci: np.ndarray, cf: np.ndarray) -> np.ndarray:
     return np.concatenate([np.asarray(ci, dtype=np.float64), np.ravel(cf)])
 
 
-def unpack(p: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(ci, cf)`` of a parameter vector made by :func:`pack`."""
-    return p[:NCI].astype(np.int64), p[NCI:].reshape(NCF, n).copy()
-
-
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
