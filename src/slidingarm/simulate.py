@@ -127,10 +127,14 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
 def _numbers(name: str, value: Any) -> FloatArray:
     """``value`` as a float64 array; ``ParameterTypeError`` for anything but numbers (an
     integer beyond the float range becomes ±inf, which the callers refuse as not finite)."""
-    kind = type(value).__name__
-    if value is None or isinstance(value, set | frozenset | dict):
-        raise ParameterTypeError(f"{name} must be numbers, got {kind} {value!r}")
-    return number_array(name, value, message=f"{name} must be numbers, got {kind} {value!r}")
+    try:
+        if value is None or isinstance(value, set | frozenset | dict):
+            raise ParameterTypeError(name)
+        return number_array(name, value)
+    except ParameterTypeError:
+        # the message only now: a repr of every array on every call cost 0.1 ms
+        kind = type(value).__name__
+        raise ParameterTypeError(f"{name} must be numbers, got {kind} {value!r}") from None
 
 
 def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:

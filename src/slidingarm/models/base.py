@@ -131,10 +131,15 @@ class ArmModel(ABC):
     # ------------------------------------------------------------------ input handling
     def _state(self, name: str, value: ArrayLike) -> tuple[FloatArray, bool]:
         """``value`` as a C-contiguous ``(B, n)`` array and whether it was one state."""
-        message = f"{name} must be an array of numbers, got {type(value).__name__} {value!r}"
-        if value is None or isinstance(value, set | frozenset | dict):
-            raise ParameterTypeError(message)
-        arr = number_array(name, value, message=message)
+        try:
+            if value is None or isinstance(value, set | frozenset | dict):
+                raise ParameterTypeError(name)
+            arr = number_array(name, value)
+        except ParameterTypeError:
+            # the message only now: a repr of the array on every call would cost 0.1 ms
+            raise ParameterTypeError(
+                f"{name} must be an array of numbers, got {type(value).__name__} {value!r}"
+            ) from None
         n = self.n
         if arr.ndim == 1 and arr.shape[0] == n:
             single = True

@@ -38,11 +38,12 @@ def _num(x: float) -> str:
 
 
 def _vector(name: str, value: ArrayLike, n: int | None) -> FloatArray:
-    if value is None or isinstance(value, set | frozenset | dict):
-        raise ParameterTypeError(f"{name} must be a sequence of numbers, got {value!r}")
-    arr = np.atleast_1d(
-        number_array(name, value, message=f"{name} must be a sequence of numbers, got {value!r}")
-    )
+    try:
+        if value is None or isinstance(value, set | frozenset | dict):
+            raise ParameterTypeError(name)
+        arr = np.atleast_1d(number_array(name, value))
+    except ParameterTypeError:
+        raise ParameterTypeError(f"{name} must be a sequence of numbers, got {value!r}") from None
     if arr.ndim != 1:
         raise ValueError(
             f"{name} must be one-dimensional (one value per link), got shape {arr.shape}"
