@@ -93,7 +93,7 @@ def test_cases_cover_enough_states() -> None:
 # ---------------------------------------------------------------------- engines
 def _pinocchio(arm: PlanarArm) -> tuple[pin.Model, pin.Data]:
     model = pin.buildModelFromXML(arm.to_urdf())
-    model.gravity.linear = np.array([0.0, -arm.gravity, 0.0])
+    model.gravity.linear = np.array([0.0, 0.0, -arm.gravity])  # URDF: -z of the root
     assert model.nq == model.nv == arm.n
     return model, model.createData()
 

@@ -343,14 +343,23 @@ class PlanarArm(ArmModel):
 
     # ------------------------------------------------------------------ engine models
     def to_urdf(self, name: str = "planar_arm") -> str:
-        """URDF text of the same arm, for Pinocchio and other URDF tools.
+        """URDF text of the same arm, for Pinocchio, MuJoCo and :meth:`SerialArm.from_urdf`.
 
-        Links lie along their local ``+x``; joints are revolute about ``+z`` (limits of ±1e6 rad, never
-        reached; a ``continuous`` joint would be a unit-complex joint in Pinocchio), with no
-        damping or friction. URDF carries no gravity: set it to ``(0, -g, 0)`` in the loader
-        (Pinocchio: ``model.gravity.linear``). A zero inertia is written as zero.
+        URDF's convention is gravity along ``-z`` of the root link (``world``), so the arm's
+        plane is the root's ``x``-``z`` plane: a fixed joint ``plane`` turns the arm's frame
+        ``base`` by +90° about ``x`` (the arm's ``+y``, up, is the root's ``+z``). Links lie
+        along their local ``+x``; joints are revolute about the local ``+z`` (limits of ±1e6
+        rad, never reached), with no damping or friction; a massless link ``tool`` sits at the
+        tip. A zero inertia is written as zero.
         """
-        parts = [f'<?xml version="1.0"?>\n<robot name="{name}">', '  <link name="base"/>']
+        parts = [
+            f'<?xml version="1.0"?>\n<robot name="{name}">',
+            '  <link name="world"/>',
+            '  <joint name="plane" type="fixed">\n    <parent link="world"/>\n'
+            '    <child link="base"/>\n'
+            '    <origin xyz="0 0 0" rpy="1.5707963267948966 0 0"/>\n  </joint>',
+            '  <link name="base"/>',
+        ]
         parent = "base"
         offset = 0.0
         for i in range(self.n):
@@ -372,6 +381,11 @@ class PlanarArm(ArmModel):
             )
             parent = link
             offset = float(self._lengths[i])
+        parts.append(
+            f'  <joint name="tool" type="fixed">\n    <parent link="{parent}"/>\n'
+            f'    <child link="tool"/>\n    <origin xyz="{_num(offset)} 0 0" rpy="0 0 0"/>\n'
+            "  </joint>\n  <link name=\"tool\"/>"
+        )
         parts.append("</robot>\n")
         return "\n".join(parts)
 
