@@ -114,7 +114,7 @@ def _parse_joints(text: str, where: str) -> tuple[str, dict[str, dict[str, Any]]
     if root.tag != "robot":
         raise ValueError(f"{where} is not a URDF: its root element is <{root.tag}>, not <robot>")
     joints: dict[str, dict[str, Any]] = {}
-    for el in root.iter("joint"):
+    for el in root.findall("joint"):
         name = el.get("name", "")
         kind = el.get("type", "")
         if kind in ("floating", "planar"):
