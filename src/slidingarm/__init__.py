@@ -3,6 +3,7 @@
 The public API is exactly what this module re-exports.
 """
 
+from slidingarm import robots  # the shipped robots: sa.robots.load(...)
 from slidingarm._version import __version__
 from slidingarm.control import (
     FTSMC,
@@ -83,6 +84,7 @@ __all__ = [
     "__version__",
     "check_controller",
     "ftsm_convergence_time",
+    "robots",
     "simulate",
     "simulate_batch",
     "tsm_convergence_time",
