@@ -57,8 +57,8 @@ TOL_MUJOCO = 1e-8
 #: Agreement with the closed-form planar arm, relative to the value's scale.
 TOL_PLANAR = 1e-12
 
-STATES = 24
-FAST = 6
+STATES = 40
+FAST = 10
 
 CHAINS = chain_set()
 IDS = [c.name for c in CHAINS]
@@ -129,7 +129,8 @@ def test_joints_in_chain_order(index: int) -> None:
     arm = c.arm
     assert arm.n == c.chain.info.n == c.model.nv
     assert tuple(arm.joint_names) == c.chain.info.names
-    assert tuple(arm.joint_types) == c.chain.info.types
+    assert isinstance(arm.joint_types, tuple)
+    assert arm.joint_types == c.chain.info.types
     assert arm.gravity == c.chain.gravity
 
 
@@ -191,6 +192,60 @@ def test_coriolis_matches_pinocchio_and_theory(index: int) -> None:
     scale = np.maximum(1.0, np.abs(c.arm.mass_matrix(c.q)).max(axis=(1, 2)) * w[:, 0])
     err_sym = np.abs(mdot - cor - np.swapaxes(cor, 1, 2)).max(axis=(1, 2))
     assert np.all(err_sym <= 1e-9 * scale), f"Ṁ - C - Cᵀ: worst {np.max(err_sym / scale):.3e}"
+
+
+#: URDF's defaults: no <origin> (identity), <origin> without rpy or without xyz, no <axis>
+#: (x), an inertial without <origin>, a massive link behind a fixed joint without <origin>.
+DEFAULTS_URDF = """<?xml version="1.0"?>
+<robot name="defaults">
+  <link name="base"/>
+  <link name="a"><inertial><mass value="1.3"/>
+    <inertia ixx="0.02" ixy="0.001" ixz="0" iyy="0.03" iyz="0" izz="0.04"/></inertial></link>
+  <link name="b"><inertial><origin xyz="0.2 0 0.05"/><mass value="0.7"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.012" iyz="0" izz="0.011"/></inertial></link>
+  <link name="b_plate"><inertial><origin rpy="0.4 0 0"/><mass value="0.3"/>
+    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.003" iyz="0" izz="0.004"/></inertial></link>
+  <link name="c"><inertial><origin xyz="0 0.1 0" rpy="0 0 0.3"/><mass value="0.5"/>
+    <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.006" iyz="0" izz="0.007"/></inertial></link>
+  <link name="tool"/>
+  <joint name="j1" type="continuous"><parent link="base"/><child link="a"/></joint>
+  <joint name="j2" type="revolute"><parent link="a"/><child link="b"/>
+    <origin xyz="0.3 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="plate" type="fixed"><parent link="b"/><child link="b_plate"/></joint>
+  <joint name="j3" type="prismatic"><parent link="b_plate"/><child link="c"/>
+    <origin rpy="0.3 0.2 0.1"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="tip" type="fixed"><parent link="c"/><child link="tool"/>
+    <origin xyz="0 0 0.25"/></joint>
+</robot>
+"""
+
+
+def test_urdf_defaults() -> None:
+    """Omitted origins, rpy, xyz and axes take URDF's defaults, as Pinocchio, MuJoCo and the
+    numpy reading take them."""
+    arm = SerialArm.from_urdf(DEFAULTS_URDF)
+    assert arm.joint_types == ("continuous", "revolute", "prismatic")
+    model = pin_model(DEFAULTS_URDF)
+    rng = np.random.default_rng(77)
+    q, qd = random_states(rng, arm.joint_types, 50, fast=10)
+    tau = rng.uniform(-20.0, 20.0, q.shape)
+    assert _rel_err(arm.mass_matrix(q), pin_mass(model, q)) <= TOL_PIN
+    assert _rel_err(arm.bias(q, qd), pin_bias(model, q, qd)) <= TOL_PIN
+    qdd = arm.forward_dynamics(q, qd, tau)
+    assert _rel_err(qdd, pin_aba(model, q, qd, tau)) <= TOL_PIN
+    mj = mujoco_forward(mujoco_model(DEFAULTS_URDF), q, qd, tau)
+    assert _rel_err(qdd, mj["qdd"]) <= TOL_MUJOCO
+    ref = NumpyChain(DEFAULTS_URDF)
+    for x in q[:5]:
+        mass, potential = ref.mass_and_potential(x)
+        assert _rel_err(arm.mass_matrix(x)[None], mass[None]) <= 1e-12
+        assert abs(arm.potential_energy(x) - potential) <= 1e-12 * max(1.0, abs(potential))
+        pos, rot, _ = ref.frames(x)["tool"]
+        ours_pos, ours_rot = arm.frame_pose(x)
+        np.testing.assert_allclose(ours_pos, pos, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(ours_rot, rot, rtol=0, atol=1e-13)
 
 
 # ---------------------------------------------------------------------- MuJoCo
