@@ -90,8 +90,9 @@ _MATRICES = _WORK + CK.CONTROL_WORK_ROWS
 
 
 #: Whether the plant's first RK4 stage reuses the kinematics the law left in the workspace when
-#: the measurement was the exact position and plant and nominal model are of one kind (the
-#: planar kind: its sines and cosines). ``benchmarks/bench_engine.py`` measures its worth by
+#: the measurement was the exact position and plant and nominal model are of one kind with the
+#: same geometry (the planar kind: its sines and cosines; the serial kind: each body's
+#: placement). ``benchmarks/bench_engine.py`` measures its worth by
 #: compiling the loop with it off.
 REUSE_KINEMATICS = True
 
@@ -305,7 +306,7 @@ def run_one(
     status[0] = STATUS_OK
     status[1] = -1
     status[2] = -1
-    reuse = REUSE_KINEMATICS and pkind == mkind
+    reuse = REUSE_KINEMATICS and pkind == mkind and MD.same_kinematics(pkind, pp, mp)
     for k in range(nt):
         bad, exact = control_sample(
             k, tgrid[k], dt, law_code, entry, kernel, lp, lstate, mkind, mp, mg, madd, mhold, vcode,

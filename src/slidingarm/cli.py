@@ -223,7 +223,8 @@ def validate(
 
 @app.command(name="list")
 def list_() -> None:
-    """List controllers, laws, references, sensors, disturbances and shipped scenarios."""
+    """List controllers, laws, references, sensors, disturbances, shipped scenarios and robots."""
+    from slidingarm import robots
     from slidingarm.config import CONTROLLERS, choices
     from slidingarm.study import SCENARIOS, load_shipped
 
@@ -235,6 +236,9 @@ def list_() -> None:
     typer.echo("scenarios (shipped; run with `slidingarm run NAME --out DIR`):")
     for name in SCENARIOS:
         typer.echo(f"  {name:<8} {load_shipped(name).description}")
+    typer.echo("robots (shipped URDFs; load with `slidingarm.robots.load(NAME)`):")
+    for name in robots.names():
+        typer.echo(f"  {name:<8} {robots.describe(name)}")
 
 
 @app.command()

@@ -15,8 +15,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from slidingarm._validate import per_joint, plain, real
+from slidingarm._validate import ParameterTypeError, per_joint, plain, real
 from slidingarm.models.planar import PlanarArm
+from slidingarm.models.serial import SerialArm
 
 __all__ = [
     "ConstantTorque",
@@ -163,14 +164,17 @@ def disturbance_torque(
 class ModelMismatch:
     """How the real plant differs from the nominal arm the controller uses.
 
-    The plant is the nominal arm with masses scaled by ``1 + mass_error``, lengths by
-    ``1 + length_error`` (scalars or per joint; centres of mass keep their fraction of the link,
-    inertias scale as :math:`m l^2`), then a point ``payload`` (kg) at the tool.
+    The plant is the nominal arm with masses (and inertias with them) scaled by
+    ``1 + mass_error``, lengths by ``1 + length_error`` (scalars or per joint; centres of mass
+    keep their fraction of the link, inertias scale as :math:`m l^2`), then a point ``payload``
+    (kg) at the tool, or, for a :class:`~slidingarm.SerialArm`, at the origin of the link
+    ``payload_link``.
     """
 
     payload: float = 0.0
     mass_error: float | tuple[float, ...] = 0.0
     length_error: float | tuple[float, ...] = 0.0
+    payload_link: str | None = None
 
     def __post_init__(self) -> None:
         payload = real(
@@ -183,17 +187,28 @@ class ModelMismatch:
         why = " (a relative error; -1 would remove the link)"
         for name in ("mass_error", "length_error"):
             object.__setattr__(self, name, _per_joint(name, getattr(self, name), low=-1.0, why=why))
+        if self.payload_link is not None and not isinstance(self.payload_link, str):
+            raise ParameterTypeError(f"payload_link must be a link name, got {self.payload_link!r}")
 
-    def apply(self, nominal: PlanarArm) -> PlanarArm:
+    def apply(self, nominal: PlanarArm | SerialArm) -> PlanarArm | SerialArm:
         """The plant: the nominal arm with this mismatch."""
         fm = 1.0 + _broadcast("mass_error", self.mass_error, nominal.n)
         fl = 1.0 + _broadcast("length_error", self.length_error, nominal.n)
         arm = nominal.scaled(mass=fm, length=fl)
+        if isinstance(arm, SerialArm):
+            return arm.with_payload(self.payload, link=self.payload_link) if self.payload > 0 else arm
+        if self.payload_link is not None:
+            raise ValueError(
+                f"payload_link={self.payload_link!r} names a link; a planar arm's payload sits at its tip"
+            )
         return arm.with_payload(self.payload) if self.payload > 0 else arm
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "payload": self.payload,
             "mass_error": plain(self.mass_error),
             "length_error": plain(self.length_error),
         }
+        if self.payload_link is not None:
+            out["payload_link"] = self.payload_link
+        return out

@@ -1,8 +1,17 @@
-"""Arm models: the contract (:class:`ArmModel`), the closed-form planar arm, Python-stepped
-plants."""
+"""Arm models: the contract (:class:`ArmModel`), the closed-form planar arm, URDF serial arms,
+Python-stepped plants."""
 
 from slidingarm.models.base import ArmModel, ModelHandle
 from slidingarm.models.planar import MassModel, PlanarArm
+from slidingarm.models.serial import SerialArm
 from slidingarm.models.stepped import SteppedArm, SteppedPlant
 
-__all__ = ["ArmModel", "MassModel", "ModelHandle", "PlanarArm", "SteppedArm", "SteppedPlant"]
+__all__ = [
+    "ArmModel",
+    "MassModel",
+    "ModelHandle",
+    "PlanarArm",
+    "SerialArm",
+    "SteppedArm",
+    "SteppedPlant",
+]

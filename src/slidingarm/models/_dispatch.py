@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from slidingarm.models import _kernels as PK
+from slidingarm.models import _spatial as SK
 
 #: Solve ``a x = b`` for a symmetric positive definite ``a`` by Cholesky (no model in it:
 #: plain linear algebra that the laws share with the planar kind).
@@ -33,9 +34,10 @@ cholesky_solve_into = PK.cholesky_solve_into
 
 #: Kind codes.
 KIND_PLANAR = 0
+KIND_SERIAL = 1
 
 #: Rows of the ``(WORK_ROWS, n)`` workspace every kernel here takes (the largest any kind needs).
-WORK_ROWS = PK.WORK_ROWS
+WORK_ROWS = max(PK.WORK_ROWS, SK.WORK_ROWS)
 
 _OPTS = {"cache": True, "nogil": True, "error_model": "numpy", "inline": "always"}
 
@@ -47,6 +49,8 @@ def mass_matrix(
     """:math:`M(q)` into ``out`` (n, n)."""
     if kind == KIND_PLANAR:
         PK.mass_matrix_into(params, q, out, work)
+    elif kind == KIND_SERIAL:
+        SK.mass_matrix_into(params, q, out, work)
 
 
 @njit(**_OPTS)
@@ -62,6 +66,8 @@ def coriolis(
     """The Coriolis matrix :math:`C(q, \\dot q)` into ``out`` (n, n)."""
     if kind == KIND_PLANAR:
         PK.coriolis_into(params, q, qd, out, work)
+    elif kind == KIND_SERIAL:
+        SK.coriolis_into(params, g, q, qd, out, work)
 
 
 @njit(**_OPTS)
@@ -71,6 +77,8 @@ def gravity_torque(
     """:math:`G(q)` into ``out`` (n,)."""
     if kind == KIND_PLANAR:
         PK.gravity_into(params, g, q, out, work)
+    elif kind == KIND_SERIAL:
+        SK.gravity_into(params, g, q, out, work)
 
 
 @njit(**_OPTS)
@@ -86,6 +94,8 @@ def bias(
     """:math:`h(q, \\dot q) = C\\dot q + G` into ``out`` (n,)."""
     if kind == KIND_PLANAR:
         PK.bias_into(params, g, q, qd, out, work)
+    elif kind == KIND_SERIAL:
+        SK.bias_into(params, g, q, qd, out, work)
 
 
 @njit(**_OPTS)
@@ -102,6 +112,8 @@ def mass_and_bias(
     """:math:`M(q)` into ``mmat`` and :math:`h(q, \\dot q)` into ``h``, sharing the kinematics."""
     if kind == KIND_PLANAR:
         PK.mass_and_bias_into(params, g, q, qd, mmat, h, work)
+    elif kind == KIND_SERIAL:
+        SK.mass_and_bias_into(params, g, q, qd, mmat, h, work)
 
 
 @njit(**_OPTS)
@@ -121,6 +133,8 @@ def inverse_dynamics(
         # in the loop (numba copies an inlined body once per level), i.e. a quicker compile
         PK.angles_into(q, work)
         PK._rnea_from_angles(params, g, qd, qdd, 1.0, out, work)
+    elif kind == KIND_SERIAL:
+        SK.inverse_dynamics_into(params, g, q, qd, qdd, out, work)
 
 
 @njit(**_OPTS)
@@ -138,6 +152,8 @@ def forward_dynamics(
     positive definite."""
     if kind == KIND_PLANAR:
         return PK.forward_dynamics_into(params, g, q, qd, tau, out, work)
+    if kind == KIND_SERIAL:
+        return SK.forward_dynamics_into(params, g, q, qd, tau, out, work)
     return False
 
 
@@ -148,6 +164,8 @@ def potential_energy(
     """Potential energy :math:`V(q)` (J)."""
     if kind == KIND_PLANAR:
         return PK.potential_energy(params, g, q, work)
+    if kind == KIND_SERIAL:
+        return SK.potential_energy(params, g, q, work)
     return np.nan
 
 
@@ -171,8 +189,22 @@ def rk4_step(
     """
     if kind == KIND_PLANAR:
         return PK.rk4_step(params, g, q, qd, tau, h, known, scratch, work)
+    if kind == KIND_SERIAL:
+        return SK.rk4_step(params, g, q, qd, tau, h, known, scratch, work)
     return False
 
 
 #: Rows of the ``(RK4_ROWS, n)`` scratch of :func:`rk4_step`.
-RK4_ROWS = PK.RK4_ROWS
+RK4_ROWS = max(PK.RK4_ROWS, SK.RK4_ROWS)
+
+
+@njit(**_OPTS)
+def same_kinematics(kind: int, a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two models of ``kind`` have the same q-only kinematics (what ``work`` holds
+    after a kernel), so that one's kinematics of ``q`` can stand for the other's."""
+    if kind == KIND_SERIAL:
+        for r in range(SK.P_MASS):
+            for j in range(a.shape[1]):
+                if a[r, j] != b[r, j]:
+                    return False
+    return True

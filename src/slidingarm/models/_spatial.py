@@ -1,0 +1,992 @@
+"""Compiled spatial-algebra dynamics of a serial chain of revolute and prismatic joints.
+
+Every function is a numba ``njit`` kernel over plain float arrays that allocates nothing: the
+callers pass the outputs and a ``(WORK_ROWS, n)`` workspace (column ``i`` belongs to joint
+``i``).
+
+**Parameters.** A chain is the table ``p`` of shape ``(ROWS, n)``; column ``i`` describes joint
+``i`` and the body it moves (the links fixed to that body merged into it):
+
+* rows 0-8: ``R0``, the joint frame's orientation in its parent's frame at ``q = 0``
+  (row-major), rows 9-11: ``p0``, its origin there;
+* rows 12-14: the unit joint axis ``a`` in the joint frame, row 15: 0 revolute, 1 prismatic;
+* row 16: the body's mass ``m``, rows 17-19: its first moment ``h = m c`` (``c`` the centre of
+  mass), rows 20-25: its rotational inertia about the joint frame's origin,
+  ``I_o = I_c + m(|c|^2 1 - c c^T)``, as ``xx, yy, zz, xy, xz, yz`` — all in the joint frame.
+
+A revolute joint places its body at ``x_parent = R0 Rot(a, q) x + p0``, a prismatic one at
+``x_parent = R0 (x + a q) + p0``. Gravity is ``(0, 0, -g)`` in the root frame.
+
+**Spatial algebra** (Featherstone, *Rigid Body Dynamics Algorithms*, 2008), in each body's own
+frame: a motion is ``(ω, v)`` (angular first, linear velocity of the frame's origin), a force
+``(n, f)``. The rigid-body inertia acts as ``I (ω, v) = (I_o ω + h × v, m v - h × ω)``, the
+cross products are ``(ω, v) × (ω', v') = (ω × ω', ω × v' + v × ω')`` and
+``(ω, v) ×* (n, f) = (ω × n + v × f, ω × f)``. With ``E = R_pc^T`` and ``r`` the rotation and
+origin of a body in its parent, a motion is carried from the parent as
+``(E ω, E (v + ω × r))`` and a force to the parent as ``(R_pc n + r × R_pc f, R_pc f)``.
+The joint's motion subspace ``S`` is ``(a, 0)`` (revolute) or ``(0, a)`` (prismatic).
+
+**Algorithms**: recursive Newton-Euler (inverse dynamics, the bias ``h = C q̇ + G``, gravity),
+O(n); the composite-rigid-body algorithm (``M``), O(n²); the articulated-body algorithm
+(forward dynamics), O(n). Gravity enters as the root's acceleration ``(0, 0, 0, 0, 0, g)``.
+
+**Workspace contract** (see :mod:`slidingarm.models._dispatch`): every kernel that evaluates
+at ``q`` leaves in rows 0-11 the q-only kinematics of ``q`` — the body's rotation ``R_pc``
+(rows 0-8) and origin ``r`` (rows 9-11) in its parent — which :func:`rk4_step` reuses when told
+they are known.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: Rows of the parameter table.
+ROWS = 26
+P_AXIS = 12
+P_TYPE = 15
+P_MASS = 16
+P_H = 17
+P_IO = 20
+
+# workspace rows
+W_ROT = 0  # 9: R_pc
+W_POS = 9  # 3: r
+W_V = 12  # 6: the body's velocity
+W_A = 18  # 6: its acceleration (RNEA) or velocity-product acceleration c (ABA)
+W_F = 24  # 6: its force (RNEA) or bias force pA (ABA)
+W_IA = 30  # 36: articulated inertia (ABA) or composite inertia (CRBA, first 10 rows)
+W_U = 66  # 6: U = IA S
+W_D = 72  # D = S^T U
+W_UU = 73  # u = tau - S^T pA
+W_T = 74  # 27: three 3x3 temporaries
+#: Rows of the workspace these kernels use.
+WORK_ROWS = 101
+
+_OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+@njit(**_OPTS)
+def kinematics_into(p: np.ndarray, q: np.ndarray, work: np.ndarray) -> None:
+    """Each body's rotation ``R_pc`` and origin ``r`` in its parent at ``q`` into rows 0-11."""
+    for i in range(q.shape[0]):
+        ax = p[P_AXIS, i]
+        ay = p[P_AXIS + 1, i]
+        az = p[P_AXIS + 2, i]
+        if p[P_TYPE, i] == 0.0:
+            # Rodrigues: Rot(a, q) = c 1 + s [a]x + (1 - c) a a^T; then R_pc = R0 Rot
+            c = math.cos(q[i])
+            s = math.sin(q[i])
+            t = 1.0 - c
+            k00 = c + t * ax * ax
+            k01 = t * ax * ay - s * az
+            k02 = t * ax * az + s * ay
+            k10 = t * ax * ay + s * az
+            k11 = c + t * ay * ay
+            k12 = t * ay * az - s * ax
+            k20 = t * ax * az - s * ay
+            k21 = t * ay * az + s * ax
+            k22 = c + t * az * az
+            for row in range(3):
+                b0 = p[3 * row, i]
+                b1 = p[3 * row + 1, i]
+                b2 = p[3 * row + 2, i]
+                work[3 * row, i] = b0 * k00 + b1 * k10 + b2 * k20
+                work[3 * row + 1, i] = b0 * k01 + b1 * k11 + b2 * k21
+                work[3 * row + 2, i] = b0 * k02 + b1 * k12 + b2 * k22
+                work[W_POS + row, i] = p[9 + row, i]
+        else:
+            qi = q[i]
+            for row in range(3):
+                b0 = p[3 * row, i]
+                b1 = p[3 * row + 1, i]
+                b2 = p[3 * row + 2, i]
+                work[3 * row, i] = b0
+                work[3 * row + 1, i] = b1
+                work[3 * row + 2, i] = b2
+                work[W_POS + row, i] = p[9 + row, i] + qi * (b0 * ax + b1 * ay + b2 * az)
+
+
+@njit(**_OPTS)
+def _motion_in(
+    work: np.ndarray, i: int, wx: float, wy: float, wz: float, vx: float, vy: float, vz: float
+) -> tuple[float, float, float, float, float, float]:
+    """A motion of the parent carried into body ``i``: ``(E ω, E (v + ω × r))``."""
+    rx = work[W_POS, i]
+    ry = work[W_POS + 1, i]
+    rz = work[W_POS + 2, i]
+    ux = vx + wy * rz - wz * ry
+    uy = vy + wz * rx - wx * rz
+    uz = vz + wx * ry - wy * rx
+    r00 = work[0, i]
+    r01 = work[1, i]
+    r02 = work[2, i]
+    r10 = work[3, i]
+    r11 = work[4, i]
+    r12 = work[5, i]
+    r20 = work[6, i]
+    r21 = work[7, i]
+    r22 = work[8, i]
+    return (
+        r00 * wx + r10 * wy + r20 * wz,
+        r01 * wx + r11 * wy + r21 * wz,
+        r02 * wx + r12 * wy + r22 * wz,
+        r00 * ux + r10 * uy + r20 * uz,
+        r01 * ux + r11 * uy + r21 * uz,
+        r02 * ux + r12 * uy + r22 * uz,
+    )
+
+
+@njit(**_OPTS)
+def _force_out(
+    work: np.ndarray, i: int, nx: float, ny: float, nz: float, fx: float, fy: float, fz: float
+) -> tuple[float, float, float, float, float, float]:
+    """A force on body ``i`` carried to its parent: ``(R n + r × R f, R f)``."""
+    r00 = work[0, i]
+    r01 = work[1, i]
+    r02 = work[2, i]
+    r10 = work[3, i]
+    r11 = work[4, i]
+    r12 = work[5, i]
+    r20 = work[6, i]
+    r21 = work[7, i]
+    r22 = work[8, i]
+    gx = r00 * fx + r01 * fy + r02 * fz
+    gy = r10 * fx + r11 * fy + r12 * fz
+    gz = r20 * fx + r21 * fy + r22 * fz
+    rx = work[W_POS, i]
+    ry = work[W_POS + 1, i]
+    rz = work[W_POS + 2, i]
+    return (
+        r00 * nx + r01 * ny + r02 * nz + ry * gz - rz * gy,
+        r10 * nx + r11 * ny + r12 * nz + rz * gx - rx * gz,
+        r20 * nx + r21 * ny + r22 * nz + rx * gy - ry * gx,
+        gx,
+        gy,
+        gz,
+    )
+
+
+@njit(**_OPTS)
+def _inertia_times(
+    p: np.ndarray, i: int, wx: float, wy: float, wz: float, vx: float, vy: float, vz: float
+) -> tuple[float, float, float, float, float, float]:
+    """The rigid-body inertia of body ``i`` times a motion: ``(I_o ω + h × v, m v - h × ω)``."""
+    m = p[P_MASS, i]
+    hx = p[P_H, i]
+    hy = p[P_H + 1, i]
+    hz = p[P_H + 2, i]
+    ixx = p[P_IO, i]
+    iyy = p[P_IO + 1, i]
+    izz = p[P_IO + 2, i]
+    ixy = p[P_IO + 3, i]
+    ixz = p[P_IO + 4, i]
+    iyz = p[P_IO + 5, i]
+    return (
+        ixx * wx + ixy * wy + ixz * wz + hy * vz - hz * vy,
+        ixy * wx + iyy * wy + iyz * wz + hz * vx - hx * vz,
+        ixz * wx + iyz * wy + izz * wz + hx * vy - hy * vx,
+        m * vx - (hy * wz - hz * wy),
+        m * vy - (hz * wx - hx * wz),
+        m * vz - (hx * wy - hy * wx),
+    )
+
+
+@njit(**_OPTS)
+def rnea_known(
+    p: np.ndarray,
+    g: float,
+    qd: np.ndarray,
+    vel: float,
+    qdd: np.ndarray,
+    acc: float,
+    grav: float,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Recursive Newton-Euler with the kinematics in ``work``:
+    :math:`\\tau = M(q)\\,(acc\\,\\ddot q) + C(q, vel\\,\\dot q)\\,vel\\,\\dot q + grav\\,G(q)`.
+
+    Forward: :math:`v_i = X_i v_{i-1} + S_i \\dot q_i`,
+    :math:`a_i = X_i a_{i-1} + S_i \\ddot q_i + v_i \\times S_i \\dot q_i` from
+    :math:`a_{-1} = (0, 0, 0, 0, 0, grav\\,g)`, :math:`f_i = I_i a_i + v_i \\times^* I_i v_i`;
+    backward: :math:`\\tau_i = S_i^T f_i`, :math:`f_{i-1} \\mathrel{+}= X_i^T f_i`.
+    """
+    n = qd.shape[0]
+    wx = 0.0
+    wy = 0.0
+    wz = 0.0
+    vx = 0.0
+    vy = 0.0
+    vz = 0.0
+    bx = 0.0
+    by = 0.0
+    bz = 0.0
+    cx = 0.0
+    cy = 0.0
+    cz = grav * g
+    for i in range(n):
+        wx, wy, wz, vx, vy, vz = _motion_in(work, i, wx, wy, wz, vx, vy, vz)
+        bx, by, bz, cx, cy, cz = _motion_in(work, i, bx, by, bz, cx, cy, cz)
+        ax = p[P_AXIS, i]
+        ay = p[P_AXIS + 1, i]
+        az = p[P_AXIS + 2, i]
+        dq = vel * qd[i]
+        ddq = acc * qdd[i]
+        if p[P_TYPE, i] == 0.0:
+            wx += ax * dq
+            wy += ay * dq
+            wz += az * dq
+            bx += ax * ddq + (wy * az - wz * ay) * dq
+            by += ay * ddq + (wz * ax - wx * az) * dq
+            bz += az * ddq + (wx * ay - wy * ax) * dq
+            cx += (vy * az - vz * ay) * dq
+            cy += (vz * ax - vx * az) * dq
+            cz += (vx * ay - vy * ax) * dq
+        else:
+            vx += ax * dq
+            vy += ay * dq
+            vz += az * dq
+            cx += ax * ddq + (wy * az - wz * ay) * dq
+            cy += ay * ddq + (wz * ax - wx * az) * dq
+            cz += az * ddq + (wx * ay - wy * ax) * dq
+        n1x, n1y, n1z, f1x, f1y, f1z = _inertia_times(p, i, wx, wy, wz, vx, vy, vz)
+        n2x, n2y, n2z, f2x, f2y, f2z = _inertia_times(p, i, bx, by, bz, cx, cy, cz)
+        work[W_F, i] = n2x + wy * n1z - wz * n1y + vy * f1z - vz * f1y
+        work[W_F + 1, i] = n2y + wz * n1x - wx * n1z + vz * f1x - vx * f1z
+        work[W_F + 2, i] = n2z + wx * n1y - wy * n1x + vx * f1y - vy * f1x
+        work[W_F + 3, i] = f2x + wy * f1z - wz * f1y
+        work[W_F + 4, i] = f2y + wz * f1x - wx * f1z
+        work[W_F + 5, i] = f2z + wx * f1y - wy * f1x
+    for i in range(n - 1, -1, -1):
+        off = W_F if p[P_TYPE, i] == 0.0 else W_F + 3
+        out[i] = (
+            p[P_AXIS, i] * work[off, i]
+            + p[P_AXIS + 1, i] * work[off + 1, i]
+            + p[P_AXIS + 2, i] * work[off + 2, i]
+        )
+        if i > 0:
+            nx, ny, nz, fx, fy, fz = _force_out(
+                work, i, work[W_F, i], work[W_F + 1, i], work[W_F + 2, i],
+                work[W_F + 3, i], work[W_F + 4, i], work[W_F + 5, i],
+            )  # fmt: skip
+            work[W_F, i - 1] += nx
+            work[W_F + 1, i - 1] += ny
+            work[W_F + 2, i - 1] += nz
+            work[W_F + 3, i - 1] += fx
+            work[W_F + 4, i - 1] += fy
+            work[W_F + 5, i - 1] += fz
+
+
+@njit(**_OPTS)
+def inverse_dynamics_into(
+    p: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """:math:`\\tau = M(q)\\ddot q + h(q, \\dot q)` (recursive Newton-Euler)."""
+    kinematics_into(p, q, work)
+    rnea_known(p, g, qd, 1.0, qdd, 1.0, 1.0, out, work)
+
+
+@njit(**_OPTS)
+def bias_into(
+    p: np.ndarray, g: float, q: np.ndarray, qd: np.ndarray, out: np.ndarray, work: np.ndarray
+) -> None:
+    """:math:`h(q, \\dot q) = C\\dot q + G`: Newton-Euler with :math:`\\ddot q = 0`."""
+    kinematics_into(p, q, work)
+    rnea_known(p, g, qd, 1.0, qd, 0.0, 1.0, out, work)
+
+
+@njit(**_OPTS)
+def gravity_into(p: np.ndarray, g: float, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """:math:`G(q)`: Newton-Euler at rest."""
+    kinematics_into(p, q, work)
+    rnea_known(p, g, q, 0.0, q, 0.0, 1.0, out, work)
+
+
+@njit(**_OPTS)
+def crba_known(p: np.ndarray, n: int, out: np.ndarray, work: np.ndarray) -> None:
+    """Composite-rigid-body algorithm with the kinematics in ``work``: ``M`` into ``out``.
+
+    Composite inertias :math:`I^c_i = I_i + X_{i+1}^T I^c_{i+1} X_{i+1}` (as ``m``, ``h``,
+    ``I_o``: carried to the parent as :math:`h' = R h + m r`,
+    :math:`I_o' = R I_o R^T - r h_R^T - h_R r^T - m r r^T + (2 h_R \\cdot r + m |r|^2) 1`, with
+    :math:`h_R = R h`), then :math:`M_{ii} = S_i^T I^c_i S_i` and
+    :math:`M_{ji} = S_j^T X_{j+1}^T \\cdots X_i^T I^c_i S_i` for :math:`j < i`.
+    """
+    c = W_IA
+    for i in range(n):
+        for k in range(10):
+            work[c + k, i] = p[P_MASS + k, i]
+    for i in range(n - 1, 0, -1):
+        m = work[c, i]
+        hx = work[c + 1, i]
+        hy = work[c + 2, i]
+        hz = work[c + 3, i]
+        r00 = work[0, i]
+        r01 = work[1, i]
+        r02 = work[2, i]
+        r10 = work[3, i]
+        r11 = work[4, i]
+        r12 = work[5, i]
+        r20 = work[6, i]
+        r21 = work[7, i]
+        r22 = work[8, i]
+        gx = r00 * hx + r01 * hy + r02 * hz
+        gy = r10 * hx + r11 * hy + r12 * hz
+        gz = r20 * hx + r21 * hy + r22 * hz
+        rx = work[W_POS, i]
+        ry = work[W_POS + 1, i]
+        rz = work[W_POS + 2, i]
+        # R I_o R^T, I_o symmetric from its six entries
+        i00 = work[c + 4, i]
+        i11 = work[c + 5, i]
+        i22 = work[c + 6, i]
+        i01 = work[c + 7, i]
+        i02 = work[c + 8, i]
+        i12 = work[c + 9, i]
+        # T = I_o R^T (rows of I_o dotted with rows of R)
+        t00 = i00 * r00 + i01 * r01 + i02 * r02
+        t01 = i00 * r10 + i01 * r11 + i02 * r12
+        t02 = i00 * r20 + i01 * r21 + i02 * r22
+        t10 = i01 * r00 + i11 * r01 + i12 * r02
+        t11 = i01 * r10 + i11 * r11 + i12 * r12
+        t12 = i01 * r20 + i11 * r21 + i12 * r22
+        t20 = i02 * r00 + i12 * r01 + i22 * r02
+        t21 = i02 * r10 + i12 * r11 + i22 * r12
+        t22 = i02 * r20 + i12 * r21 + i22 * r22
+        a00 = r00 * t00 + r01 * t10 + r02 * t20
+        a11 = r10 * t01 + r11 * t11 + r12 * t21
+        a22 = r20 * t02 + r21 * t12 + r22 * t22
+        a01 = r00 * t01 + r01 * t11 + r02 * t21
+        a02 = r00 * t02 + r01 * t12 + r02 * t22
+        a12 = r10 * t02 + r11 * t12 + r12 * t22
+        diag = 2.0 * (gx * rx + gy * ry + gz * rz) + m * (rx * rx + ry * ry + rz * rz)
+        j = i - 1
+        work[c, j] += m
+        work[c + 1, j] += gx + m * rx
+        work[c + 2, j] += gy + m * ry
+        work[c + 3, j] += gz + m * rz
+        work[c + 4, j] += a00 - 2.0 * rx * gx - m * rx * rx + diag
+        work[c + 5, j] += a11 - 2.0 * ry * gy - m * ry * ry + diag
+        work[c + 6, j] += a22 - 2.0 * rz * gz - m * rz * rz + diag
+        work[c + 7, j] += a01 - rx * gy - gx * ry - m * rx * ry
+        work[c + 8, j] += a02 - rx * gz - gx * rz - m * rx * rz
+        work[c + 9, j] += a12 - ry * gz - gy * rz - m * ry * rz
+    for i in range(n):
+        ax = p[P_AXIS, i]
+        ay = p[P_AXIS + 1, i]
+        az = p[P_AXIS + 2, i]
+        m = work[c, i]
+        hx = work[c + 1, i]
+        hy = work[c + 2, i]
+        hz = work[c + 3, i]
+        if p[P_TYPE, i] == 0.0:  # I^c (a, 0) = (I_o a, -h x a)
+            nx = work[c + 4, i] * ax + work[c + 7, i] * ay + work[c + 8, i] * az
+            ny = work[c + 7, i] * ax + work[c + 5, i] * ay + work[c + 9, i] * az
+            nz = work[c + 8, i] * ax + work[c + 9, i] * ay + work[c + 6, i] * az
+            fx = -(hy * az - hz * ay)
+            fy = -(hz * ax - hx * az)
+            fz = -(hx * ay - hy * ax)
+            out[i, i] = ax * nx + ay * ny + az * nz
+        else:  # I^c (0, a) = (h x a, m a)
+            nx = hy * az - hz * ay
+            ny = hz * ax - hx * az
+            nz = hx * ay - hy * ax
+            fx = m * ax
+            fy = m * ay
+            fz = m * az
+            out[i, i] = ax * fx + ay * fy + az * fz
+        for j in range(i, 0, -1):
+            nx, ny, nz, fx, fy, fz = _force_out(work, j, nx, ny, nz, fx, fy, fz)
+            k = j - 1
+            bx = p[P_AXIS, k]
+            by = p[P_AXIS + 1, k]
+            bz = p[P_AXIS + 2, k]
+            if p[P_TYPE, k] == 0.0:
+                v = bx * nx + by * ny + bz * nz
+            else:
+                v = bx * fx + by * fy + bz * fz
+            out[k, i] = v
+            out[i, k] = v
+
+
+@njit(**_OPTS)
+def mass_matrix_into(p: np.ndarray, q: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """:math:`M(q)` into ``out`` (n, n) by the composite-rigid-body algorithm."""
+    kinematics_into(p, q, work)
+    crba_known(p, q.shape[0], out, work)
+
+
+@njit(**_OPTS)
+def mass_and_bias_into(
+    p: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    mmat: np.ndarray,
+    h: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """:math:`M(q)` and :math:`h(q, \\dot q)`, sharing the kinematics."""
+    kinematics_into(p, q, work)
+    crba_known(p, q.shape[0], mmat, work)
+    rnea_known(p, g, qd, 1.0, qd, 0.0, 1.0, h, work)
+
+
+@njit(**_OPTS)
+def _rotate_block(work: np.ndarray, i: int, src: int, dst: int) -> None:
+    """``R B R^T`` of the 3x3 block of the 6x6 articulated inertia at ``(src // 6, src % 6)``
+    (row-major offset into rows ``W_IA``) of body ``i``, into temporary rows ``dst`` (9)."""
+    for a in range(3):
+        for b in range(3):
+            s = 0.0
+            for k in range(3):
+                s += work[W_IA + src + 6 * a + k, i] * work[3 * b + k, i]
+            work[W_T + 18 + 3 * a + b, i] = s  # T = B R^T
+    for a in range(3):
+        for b in range(3):
+            s = 0.0
+            for k in range(3):
+                s += work[3 * a + k, i] * work[W_T + 18 + 3 * k + b, i]
+            work[dst + 3 * a + b, i] = s
+
+
+@njit(**_OPTS)
+def aba_known(
+    p: np.ndarray,
+    g: float,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """Articulated-body algorithm with the kinematics in ``work``:
+    :math:`\\ddot q = M^{-1}(\\tau - h)` into ``out``; ``False`` if an articulated inertia
+    along its joint, :math:`D_i = S_i^T I^A_i S_i`, is not positive (``M`` not positive
+    definite).
+
+    Pass 1: velocities :math:`v_i`, :math:`c_i = v_i \\times S_i \\dot q_i`,
+    :math:`I^A_i = I_i`, :math:`p^A_i = v_i \\times^* I_i v_i`. Pass 2 (tip to root):
+    :math:`U_i = I^A_i S_i`, :math:`D_i = S_i^T U_i`, :math:`u_i = \\tau_i - S_i^T p^A_i`,
+    :math:`I^a = I^A_i - U_i U_i^T / D_i`, :math:`p^a = p^A_i + I^a c_i + U_i u_i / D_i`,
+    added to the parent as :math:`X_i^T I^a X_i` and :math:`X_i^T p^a`. Pass 3 (root to tip):
+    :math:`a' = X_i a_{i-1} + c_i`, :math:`\\ddot q_i = (u_i - U_i^T a') / D_i`,
+    :math:`a_i = a' + S_i \\ddot q_i`.
+    """
+    n = qd.shape[0]
+    ia = W_IA
+    wx = 0.0
+    wy = 0.0
+    wz = 0.0
+    vx = 0.0
+    vy = 0.0
+    vz = 0.0
+    for i in range(n):
+        wx, wy, wz, vx, vy, vz = _motion_in(work, i, wx, wy, wz, vx, vy, vz)
+        ax = p[P_AXIS, i]
+        ay = p[P_AXIS + 1, i]
+        az = p[P_AXIS + 2, i]
+        dq = qd[i]
+        if p[P_TYPE, i] == 0.0:
+            wx += ax * dq
+            wy += ay * dq
+            wz += az * dq
+            work[W_A, i] = (wy * az - wz * ay) * dq
+            work[W_A + 1, i] = (wz * ax - wx * az) * dq
+            work[W_A + 2, i] = (wx * ay - wy * ax) * dq
+            work[W_A + 3, i] = (vy * az - vz * ay) * dq
+            work[W_A + 4, i] = (vz * ax - vx * az) * dq
+            work[W_A + 5, i] = (vx * ay - vy * ax) * dq
+        else:
+            vx += ax * dq
+            vy += ay * dq
+            vz += az * dq
+            work[W_A, i] = 0.0
+            work[W_A + 1, i] = 0.0
+            work[W_A + 2, i] = 0.0
+            work[W_A + 3, i] = (wy * az - wz * ay) * dq
+            work[W_A + 4, i] = (wz * ax - wx * az) * dq
+            work[W_A + 5, i] = (wx * ay - wy * ax) * dq
+        n1x, n1y, n1z, f1x, f1y, f1z = _inertia_times(p, i, wx, wy, wz, vx, vy, vz)
+        work[W_F, i] = wy * n1z - wz * n1y + vy * f1z - vz * f1y
+        work[W_F + 1, i] = wz * n1x - wx * n1z + vz * f1x - vx * f1z
+        work[W_F + 2, i] = wx * n1y - wy * n1x + vx * f1y - vy * f1x
+        work[W_F + 3, i] = wy * f1z - wz * f1y
+        work[W_F + 4, i] = wz * f1x - wx * f1z
+        work[W_F + 5, i] = wx * f1y - wy * f1x
+        # I^A = I as a 6x6: [[I_o, [h]x], [[h]x^T, m 1]]
+        m = p[P_MASS, i]
+        hx = p[P_H, i]
+        hy = p[P_H + 1, i]
+        hz = p[P_H + 2, i]
+        work[ia + 0, i] = p[P_IO, i]
+        work[ia + 1, i] = p[P_IO + 3, i]
+        work[ia + 2, i] = p[P_IO + 4, i]
+        work[ia + 6, i] = p[P_IO + 3, i]
+        work[ia + 7, i] = p[P_IO + 1, i]
+        work[ia + 8, i] = p[P_IO + 5, i]
+        work[ia + 12, i] = p[P_IO + 4, i]
+        work[ia + 13, i] = p[P_IO + 5, i]
+        work[ia + 14, i] = p[P_IO + 2, i]
+        # [h]x in the upper right, its transpose in the lower left
+        work[ia + 3, i] = 0.0
+        work[ia + 4, i] = -hz
+        work[ia + 5, i] = hy
+        work[ia + 9, i] = hz
+        work[ia + 10, i] = 0.0
+        work[ia + 11, i] = -hx
+        work[ia + 15, i] = -hy
+        work[ia + 16, i] = hx
+        work[ia + 17, i] = 0.0
+        for a in range(3):
+            for b in range(3):
+                work[ia + 18 + 6 * a + b, i] = work[ia + 3 + 6 * b + a, i]
+                work[ia + 21 + 6 * a + b, i] = m if a == b else 0.0
+    for i in range(n - 1, -1, -1):
+        off = 0 if p[P_TYPE, i] == 0.0 else 3
+        ax = p[P_AXIS, i]
+        ay = p[P_AXIS + 1, i]
+        az = p[P_AXIS + 2, i]
+        for k in range(6):
+            work[W_U + k, i] = (
+                work[ia + 6 * k + off, i] * ax
+                + work[ia + 6 * k + off + 1, i] * ay
+                + work[ia + 6 * k + off + 2, i] * az
+            )
+        d = ax * work[W_U + off, i] + ay * work[W_U + off + 1, i] + az * work[W_U + off + 2, i]
+        if not d > 0.0:
+            return False
+        u = tau[i] - (
+            ax * work[W_F + off, i] + ay * work[W_F + off + 1, i] + az * work[W_F + off + 2, i]
+        )
+        work[W_D, i] = d
+        work[W_UU, i] = u
+        if i == 0:
+            break
+        # I^a = I^A - U U^T / D (in place), p^a = p^A + I^a c + U u / D
+        rd = 1.0 / d
+        for a in range(6):
+            ua = work[W_U + a, i] * rd
+            for b in range(6):
+                work[ia + 6 * a + b, i] -= ua * work[W_U + b, i]
+        for a in range(6):
+            s = work[W_F + a, i] + work[W_U + a, i] * u * rd
+            for b in range(6):
+                s += work[ia + 6 * a + b, i] * work[W_A + b, i]
+            work[W_F + a, i] = s
+        # X^T I^a X into the parent: rotate the blocks A, B, C, then shift by r
+        _rotate_block(work, i, 0, W_T)  # A~
+        _rotate_block(work, i, 3, W_T + 9)  # B~
+        # C~ goes back into the (now unused) upper-left block rows
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for k in range(3):
+                    s += work[W_IA + 21 + 6 * a + k, i] * work[3 * b + k, i]
+                work[W_T + 18 + 3 * a + b, i] = s
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for k in range(3):
+                    s += work[3 * a + k, i] * work[W_T + 18 + 3 * k + b, i]
+                work[ia + 6 * a + b, i] = s  # C~ in rows ia + 0..14 (3x3 at stride 6)
+        rx = work[W_POS, i]
+        ry = work[W_POS + 1, i]
+        rz = work[W_POS + 2, i]
+        j = i - 1
+        # Y = B~ [r]x: Y[a, :] = -(r x B~[a, :]); W = C~ [r]x likewise; Z = [r]x W
+        for a in range(3):
+            b0 = work[W_T + 9 + 3 * a, i]
+            b1 = work[W_T + 9 + 3 * a + 1, i]
+            b2 = work[W_T + 9 + 3 * a + 2, i]
+            work[W_T + 18 + 3 * a, i] = -(ry * b2 - rz * b1)
+            work[W_T + 18 + 3 * a + 1, i] = -(rz * b0 - rx * b2)
+            work[W_T + 18 + 3 * a + 2, i] = -(rx * b1 - ry * b0)
+        for a in range(3):
+            c0 = work[ia + 6 * a, i]
+            c1 = work[ia + 6 * a + 1, i]
+            c2 = work[ia + 6 * a + 2, i]
+            # W in the upper-right block's rows (B~ is saved in the temporaries)
+            work[ia + 6 * a + 3, i] = -(ry * c2 - rz * c1)
+            work[ia + 6 * a + 4, i] = -(rz * c0 - rx * c2)
+            work[ia + 6 * a + 5, i] = -(rx * c1 - ry * c0)
+        for b in range(3):
+            w0 = work[ia + 3 + b, i]
+            w1 = work[ia + 9 + b, i]
+            w2 = work[ia + 15 + b, i]
+            z0 = ry * w2 - rz * w1
+            z1 = rz * w0 - rx * w2
+            z2 = rx * w1 - ry * w0
+            for a in range(3):
+                za = z0 if a == 0 else (z1 if a == 1 else z2)
+                work[ia + 6 * a + b, j] += (
+                    work[W_T + 3 * a + b, i]
+                    - work[W_T + 18 + 3 * a + b, i]
+                    - work[W_T + 18 + 3 * b + a, i]
+                    - za
+                )
+        for a in range(3):
+            c0 = work[ia + 6 * a, i]
+            c1 = work[ia + 6 * a + 1, i]
+            c2 = work[ia + 6 * a + 2, i]
+            for b in range(3):
+                # B'' = B~ + [r]x C~: column b of [r]x C~ is r x C~[:, b]
+                cb0 = work[ia + b, i]
+                cb1 = work[ia + 6 + b, i]
+                cb2 = work[ia + 12 + b, i]
+                if a == 0:
+                    sc = ry * cb2 - rz * cb1
+                elif a == 1:
+                    sc = rz * cb0 - rx * cb2
+                else:
+                    sc = rx * cb1 - ry * cb0
+                bb = work[W_T + 9 + 3 * a + b, i] + sc
+                work[ia + 6 * a + 3 + b, j] += bb
+                work[ia + 18 + 6 * b + a, j] += bb
+            work[ia + 21 + 6 * a, j] += c0
+            work[ia + 21 + 6 * a + 1, j] += c1
+            work[ia + 21 + 6 * a + 2, j] += c2
+        nx, ny, nz, fx, fy, fz = _force_out(
+            work, i, work[W_F, i], work[W_F + 1, i], work[W_F + 2, i],
+            work[W_F + 3, i], work[W_F + 4, i], work[W_F + 5, i],
+        )  # fmt: skip
+        work[W_F, j] += nx
+        work[W_F + 1, j] += ny
+        work[W_F + 2, j] += nz
+        work[W_F + 3, j] += fx
+        work[W_F + 4, j] += fy
+        work[W_F + 5, j] += fz
+    bx = 0.0
+    by = 0.0
+    bz = 0.0
+    cx = 0.0
+    cy = 0.0
+    cz = g
+    for i in range(n):
+        bx, by, bz, cx, cy, cz = _motion_in(work, i, bx, by, bz, cx, cy, cz)
+        bx += work[W_A, i]
+        by += work[W_A + 1, i]
+        bz += work[W_A + 2, i]
+        cx += work[W_A + 3, i]
+        cy += work[W_A + 4, i]
+        cz += work[W_A + 5, i]
+        ua = (
+            work[W_U, i] * bx + work[W_U + 1, i] * by + work[W_U + 2, i] * bz
+            + work[W_U + 3, i] * cx + work[W_U + 4, i] * cy + work[W_U + 5, i] * cz
+        )  # fmt: skip
+        qdd = (work[W_UU, i] - ua) / work[W_D, i]
+        out[i] = qdd
+        ax = p[P_AXIS, i]
+        ay = p[P_AXIS + 1, i]
+        az = p[P_AXIS + 2, i]
+        if p[P_TYPE, i] == 0.0:
+            bx += ax * qdd
+            by += ay * qdd
+            bz += az * qdd
+        else:
+            cx += ax * qdd
+            cy += ay * qdd
+            cz += az * qdd
+    return True
+
+
+@njit(**_OPTS)
+def forward_dynamics_into(
+    p: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """:math:`\\ddot q` by the articulated-body algorithm; ``False`` if ``M`` is singular."""
+    kinematics_into(p, q, work)
+    return aba_known(p, g, qd, tau, out, work)
+
+
+@njit(**_OPTS)
+def world_into(p: np.ndarray, n: int, work: np.ndarray, rot: np.ndarray, pos: np.ndarray) -> None:
+    """With the kinematics in ``work``: each body frame's rotation ``rot`` (n, 3, 3) and origin
+    ``pos`` (n, 3) in the root frame, :math:`R_{0i} = R_{0,i-1} R_{pc,i}`,
+    :math:`p_{0i} = p_{0,i-1} + R_{0,i-1} r_i`."""
+    for i in range(n):
+        for a in range(3):
+            if i == 0:
+                pos[i, a] = work[W_POS + a, i]
+                for b in range(3):
+                    rot[i, a, b] = work[3 * a + b, i]
+            else:
+                s = pos[i - 1, a]
+                for k in range(3):
+                    s += rot[i - 1, a, k] * work[W_POS + k, i]
+                pos[i, a] = s
+                for b in range(3):
+                    s = 0.0
+                    for k in range(3):
+                        s += rot[i - 1, a, k] * work[3 * k + b, i]
+                    rot[i, a, b] = s
+
+
+@njit(**_OPTS)
+def potential_energy(p: np.ndarray, g: float, q: np.ndarray, work: np.ndarray) -> float:
+    """:math:`V = g \\sum_i (m_i z_{0i} + (R_{0i} h_i)_z)`, the height of each body's centre
+    of mass times its weight (J, zero at the root's ``z = 0``)."""
+    kinematics_into(p, q, work)
+    n = q.shape[0]
+    # the bottom row of R_0i and the height of the origin, carried down the chain
+    z0 = 0.0
+    z1 = 0.0
+    z2 = 1.0
+    zp = 0.0
+    v = 0.0
+    for i in range(n):
+        zp += z0 * work[W_POS, i] + z1 * work[W_POS + 1, i] + z2 * work[W_POS + 2, i]
+        y0 = z0 * work[0, i] + z1 * work[3, i] + z2 * work[6, i]
+        y1 = z0 * work[1, i] + z1 * work[4, i] + z2 * work[7, i]
+        y2 = z0 * work[2, i] + z1 * work[5, i] + z2 * work[8, i]
+        z0 = y0
+        z1 = y1
+        z2 = y2
+        v += p[P_MASS, i] * zp + z0 * p[P_H, i] + z1 * p[P_H + 1, i] + z2 * p[P_H + 2, i]
+    return g * v
+
+
+@njit(**_OPTS)
+def coriolis_into(
+    p: np.ndarray, g: float, q: np.ndarray, qd: np.ndarray, out: np.ndarray, work: np.ndarray
+) -> None:
+    """The Coriolis matrix with :math:`\\dot M - 2C` skew-symmetric, O(n³), in the root frame.
+
+    With :math:`s_j` joint ``j``'s spatial axis, :math:`v_i = \\sum_{j \\le i} s_j \\dot q_j`,
+    :math:`\\dot s_j = v_j \\times s_j` and :math:`I_i` body ``i``'s inertia (all at the
+    root's origin):
+
+    .. math:: C = \\sum_i J_i^T (I_i \\dot J_i + B_i J_i), \\quad
+        B_i x = \\tfrac12 (v_i \\times^* I_i x - I_i (v_i \\times x) + x \\times^* I_i v_i),
+
+    where :math:`J_i` has the columns :math:`s_j, j \\le i`. Then :math:`C\\dot q` is the
+    velocity term of Newton-Euler, and :math:`\\dot M - 2C` is skew as :math:`B_i` is
+    :math:`\\tfrac12 \\dot I_i` plus a skew part.
+    """
+    n = q.shape[0]
+    kinematics_into(p, q, work)
+    # world rotation and origin of each body: temporary rows W_T (9) and W_T + 9 (3)
+    for i in range(n):
+        for a in range(3):
+            if i == 0:
+                work[W_T + 9 + a, i] = work[W_POS + a, i]
+                for b in range(3):
+                    work[W_T + 3 * a + b, i] = work[3 * a + b, i]
+            else:
+                s = work[W_T + 9 + a, i - 1]
+                for k in range(3):
+                    s += work[W_T + 3 * a + k, i - 1] * work[W_POS + k, i]
+                work[W_T + 9 + a, i] = s
+                for b in range(3):
+                    s = 0.0
+                    for k in range(3):
+                        s += work[W_T + 3 * a + k, i - 1] * work[3 * k + b, i]
+                    work[W_T + 3 * a + b, i] = s
+    # spatial axes s_j (rows W_U), velocities v_j (rows W_V), sdot_j (rows W_A)
+    wx = 0.0
+    wy = 0.0
+    wz = 0.0
+    vx = 0.0
+    vy = 0.0
+    vz = 0.0
+    for j in range(n):
+        ax = p[P_AXIS, j]
+        ay = p[P_AXIS + 1, j]
+        az = p[P_AXIS + 2, j]
+        ex = work[W_T, j] * ax + work[W_T + 1, j] * ay + work[W_T + 2, j] * az
+        ey = work[W_T + 3, j] * ax + work[W_T + 4, j] * ay + work[W_T + 5, j] * az
+        ez = work[W_T + 6, j] * ax + work[W_T + 7, j] * ay + work[W_T + 8, j] * az
+        if p[P_TYPE, j] == 0.0:
+            ox = work[W_T + 9, j]
+            oy = work[W_T + 10, j]
+            oz = work[W_T + 11, j]
+            s = (ex, ey, ez, oy * ez - oz * ey, oz * ex - ox * ez, ox * ey - oy * ex)
+        else:
+            s = (0.0, 0.0, 0.0, ex, ey, ez)
+        for k in range(6):
+            work[W_U + k, j] = s[k]
+        wx += s[0] * qd[j]
+        wy += s[1] * qd[j]
+        wz += s[2] * qd[j]
+        vx += s[3] * qd[j]
+        vy += s[4] * qd[j]
+        vz += s[5] * qd[j]
+        work[W_V, j] = wx
+        work[W_V + 1, j] = wy
+        work[W_V + 2, j] = wz
+        work[W_V + 3, j] = vx
+        work[W_V + 4, j] = vy
+        work[W_V + 5, j] = vz
+        work[W_A, j] = wy * s[2] - wz * s[1]
+        work[W_A + 1, j] = wz * s[0] - wx * s[2]
+        work[W_A + 2, j] = wx * s[1] - wy * s[0]
+        work[W_A + 3, j] = wy * s[5] - wz * s[4] + vy * s[2] - vz * s[1]
+        work[W_A + 4, j] = wz * s[3] - wx * s[5] + vz * s[0] - vx * s[2]
+        work[W_A + 5, j] = wx * s[4] - wy * s[3] + vx * s[1] - vy * s[0]
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = 0.0
+    for i in range(n):
+        # body i's inertia at the root's origin, in root coordinates
+        m = p[P_MASS, i]
+        hb = (p[P_H, i], p[P_H + 1, i], p[P_H + 2, i])
+        hr = [0.0, 0.0, 0.0]
+        for a in range(3):
+            hr[a] = (
+                work[W_T + 3 * a, i] * hb[0]
+                + work[W_T + 3 * a + 1, i] * hb[1]
+                + work[W_T + 3 * a + 2, i] * hb[2]
+            )
+        io = p[P_IO : P_IO + 6, i]
+        ib = (
+            (io[0], io[3], io[4]),
+            (io[3], io[1], io[5]),
+            (io[4], io[5], io[2]),
+        )
+        r = (work[W_T + 9, i], work[W_T + 10, i], work[W_T + 11, i])
+        hw = (hr[0] + m * r[0], hr[1] + m * r[1], hr[2] + m * r[2])
+        diag = 2.0 * (hr[0] * r[0] + hr[1] * r[1] + hr[2] * r[2]) + m * (
+            r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+        )
+        iw = np.zeros((3, 3))  # noqa: allocation only in this numpy-API kernel
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for k in range(3):
+                    for l_ in range(3):
+                        s += work[W_T + 3 * a + k, i] * ib[k][l_] * work[W_T + 3 * b + l_, i]
+                iw[a, b] = s - r[a] * hr[b] - hr[a] * r[b] - m * r[a] * r[b]
+            iw[a, a] += diag
+        v = work[W_V : W_V + 6, i]
+        iv = _times(iw, hw, m, v[0], v[1], v[2], v[3], v[4], v[5])
+        for lcol in range(i + 1):
+            sl = work[W_U : W_U + 6, lcol]
+            sd = work[W_A : W_A + 6, lcol]
+            # y = I sdot + 1/2 (v x* I s - I (v x s) + s x* I v)
+            t1 = _times(iw, hw, m, sd[0], sd[1], sd[2], sd[3], sd[4], sd[5])
+            isl = _times(iw, hw, m, sl[0], sl[1], sl[2], sl[3], sl[4], sl[5])
+            t2 = _crossf(v[0], v[1], v[2], v[3], v[4], v[5], isl)
+            vxs = (
+                v[1] * sl[2] - v[2] * sl[1],
+                v[2] * sl[0] - v[0] * sl[2],
+                v[0] * sl[1] - v[1] * sl[0],
+                v[1] * sl[5] - v[2] * sl[4] + v[4] * sl[2] - v[5] * sl[1],
+                v[2] * sl[3] - v[0] * sl[5] + v[5] * sl[0] - v[3] * sl[2],
+                v[0] * sl[4] - v[1] * sl[3] + v[3] * sl[1] - v[4] * sl[0],
+            )
+            t3 = _times(iw, hw, m, vxs[0], vxs[1], vxs[2], vxs[3], vxs[4], vxs[5])
+            t4 = _crossf(sl[0], sl[1], sl[2], sl[3], sl[4], sl[5], iv)
+            for k in range(i + 1):
+                sk = work[W_U : W_U + 6, k]
+                acc = 0.0
+                for e in range(6):
+                    acc += sk[e] * (t1[e] + 0.5 * (t2[e] - t3[e] + t4[e]))
+                out[k, lcol] += acc
+
+
+@njit(**_OPTS)
+def _times(
+    iw: np.ndarray,
+    h: tuple[float, float, float],
+    m: float,
+    wx: float,
+    wy: float,
+    wz: float,
+    vx: float,
+    vy: float,
+    vz: float,
+) -> tuple[float, float, float, float, float, float]:
+    """A rigid inertia ``(I_o = iw, h, m)`` times a motion."""
+    return (
+        iw[0, 0] * wx + iw[0, 1] * wy + iw[0, 2] * wz + h[1] * vz - h[2] * vy,
+        iw[1, 0] * wx + iw[1, 1] * wy + iw[1, 2] * wz + h[2] * vx - h[0] * vz,
+        iw[2, 0] * wx + iw[2, 1] * wy + iw[2, 2] * wz + h[0] * vy - h[1] * vx,
+        m * vx - (h[1] * wz - h[2] * wy),
+        m * vy - (h[2] * wx - h[0] * wz),
+        m * vz - (h[0] * wy - h[1] * wx),
+    )
+
+
+@njit(**_OPTS)
+def _crossf(
+    wx: float,
+    wy: float,
+    wz: float,
+    vx: float,
+    vy: float,
+    vz: float,
+    f: tuple[float, float, float, float, float, float],
+) -> tuple[float, float, float, float, float, float]:
+    """``(ω, v) ×* (n, f) = (ω × n + v × f, ω × f)``."""
+    return (
+        wy * f[2] - wz * f[1] + vy * f[5] - vz * f[4],
+        wz * f[0] - wx * f[2] + vz * f[3] - vx * f[5],
+        wx * f[1] - wy * f[0] + vx * f[4] - vy * f[3],
+        wy * f[5] - wz * f[4],
+        wz * f[3] - wx * f[5],
+        wx * f[4] - wy * f[3],
+    )
+
+
+# rows of the (RK4_ROWS, n) scratch of rk4_step
+_RK_K = 0  # 4 rows: the acceleration stages
+_RK_QTMP = 4
+_RK_VTMP = 5
+#: Rows of the scratch array of :func:`rk4_step`.
+RK4_ROWS = 6
+
+
+@njit(**_OPTS)
+def rk4_step(
+    p: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    h: float,
+    known: bool,
+    scratch: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """Advance ``(q, qd)`` in place by one classical RK4 step of length ``h``, ``tau`` held;
+    ``known`` says the kinematics of ``q`` are in ``work``. ``False`` if ``M`` was singular."""
+    n = q.shape[0]
+    k = scratch[_RK_K : _RK_K + 4]
+    qtmp = scratch[_RK_QTMP]
+    vtmp = scratch[_RK_VTMP]
+    if not known:
+        kinematics_into(p, q, work)
+    ok = True
+    for s in range(4):
+        if s == 0:
+            ok &= aba_known(p, g, qd, tau, k[0], work)
+            continue
+        c = 1.0 if s == 3 else 0.5
+        for i in range(n):
+            v_prev = qd[i] if s == 1 else qd[i] + 0.5 * h * k[s - 2, i]
+            qtmp[i] = q[i] + c * h * v_prev
+            vtmp[i] = qd[i] + c * h * k[s - 1, i]
+        kinematics_into(p, qtmp, work)
+        ok &= aba_known(p, g, vtmp, tau, k[s], work)
+    for i in range(n):
+        v1 = qd[i]
+        v2 = qd[i] + 0.5 * h * k[0, i]
+        v3 = qd[i] + 0.5 * h * k[1, i]
+        v4 = qd[i] + h * k[2, i]
+        q[i] += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
+        qd[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+    return ok
