@@ -11,7 +11,13 @@ slidingarm code involved:
   link Jacobians, ``V``) agrees with Pinocchio on every link pose, ``M`` and ``V`` to 1e-12;
 * Pinocchio's Coriolis matrix is the Christoffel one (computed here from finite differences
   of ``M``), so it is *the* reference for a ``C`` with ``Ṁ - 2C`` skew;
-* the comparisons can fail: a URDF with one inertial frame's rpy dropped disagrees.
+* the comparisons can fail: a URDF with the inertial frames' rpy dropped, or one joint axis
+  flipped, disagrees.
+
+One disagreement had a cause outside the chains: MuJoCo's URDF import turns
+``<dynamics damping>`` into joint damping (a passive force) and the shipped Panda has some,
+while Pinocchio (and rigid-body dynamics) ignore it; ``mujoco_model`` zeroes damping,
+armature, friction loss and springs.
 
 Tolerances are relative to the scale of the reference: ``|a - b| <= tol * max(1, max|b|)``
 per state.
@@ -85,6 +91,8 @@ def test_chain_set_covers_every_feature() -> None:
     assert shortnames & {"JointModelPX", "JointModelPY", "JointModelPZ"}
     # massive links behind fixed joints, inside the chain (not only at the root)
     assert sum(re.search(r'<joint name="fixed\d+_joint"', c.urdf) is not None for c in CHAINS) >= 20
+    # massive side links on fixed joints (trees without a moving branch)
+    assert sum('<joint name="side' in c.urdf for c in CHAINS) >= 20
     assert all('<link name="tool"/>' in c.urdf for c in CHAINS)
 
 

@@ -188,8 +188,10 @@ def random_chain(
     """URDF text of a random serial chain with ``n_joints`` (1-9) moving joints.
 
     Layout: a massless root ``world``; with ``fixed``, a fixed joint to a massive ``mount``
-    link at a random pose, and before each later moving joint, with probability 0.3, a fixed
-    joint to a massive link ``fixed<i>``; the moving joints ``joint1..`` to the links
+    link at a random pose, before each later moving joint, with probability 0.3, a fixed
+    joint to a massive link ``fixed<i>``, and on each link but the last, with probability
+    0.25, a massive side link ``side<i>`` on a fixed joint (a tree, but not a branching
+    chain: no moving joint below it, like a robot hand's welded fingers); the moving joints ``joint1..`` to the links
     ``link1..`` (each has a mass: MuJoCo refuses a moving body without one); at the end a
     fixed joint to a massless ``tool`` link (always: the default tool frame). Joint types are
     drawn among revolute and, if allowed, continuous and prismatic; all masses are 0.1-10 kg,
@@ -216,6 +218,10 @@ def random_chain(
         links.append(_massive_link(rng, child))
         joints.append(_Joint(f"joint{i}", kind, parent, child, *_origin(rng), axis=_axis(rng)))
         parent = child
+        if fixed and i < n_joints and rng.random() < 0.25:
+            side = f"side{i}"
+            links.append(_massive_link(rng, side))
+            joints.append(_Joint(f"side{i}_joint", "fixed", parent, side, *_origin(rng)))
     links.append(_Link("tool"))
     joints.append(_Joint("tool_joint", "fixed", parent, "tool", *_origin(rng)))
     body = [link.urdf() for link in links] + [joint.urdf() for joint in joints]
@@ -261,22 +267,31 @@ class ChainInfo:
         return len(self.names)
 
 
-def chain_info(urdf: str) -> ChainInfo:
-    """Moving joints of the chain, in chain order, from the URDF text itself (xml, not an engine)."""
+def _tree(urdf: str) -> tuple[str, list]:
+    """The root link and the URDF's joints (``<robot>``'s own ``<joint>`` children, not those
+    of a ``<transmission>``) in depth-first order from the root. In a serial chain with fixed
+    side branches that order lists the moving joints in chain order."""
     import xml.etree.ElementTree as ET
 
     root = ET.fromstring(urdf)
-    joints = {j.find("child").get("link"): j for j in root.iter("joint")}  # type: ignore[union-attr]
-    children = {j.find("parent").get("link") for j in root.iter("joint")}  # type: ignore[union-attr]
-    tip = next(link for link in joints if link not in children)
-    order = []
-    link = tip
-    while link in joints:
-        joint = joints[link]
-        order.append(joint)
-        link = joint.find("parent").get("link")  # type: ignore[union-attr]
-    order.reverse()
-    moving = [j for j in order if j.get("type") in MOVING]
+    joints = root.findall("joint")
+    below: dict[str, list] = {}
+    for j in joints:
+        below.setdefault(str(j.find("parent").get("link")), []).append(j)  # type: ignore[union-attr]
+    children = {str(j.find("child").get("link")) for j in joints}  # type: ignore[union-attr]
+    (base,) = {str(link.get("name")) for link in root.findall("link")} - children
+    order: list = []
+    stack = list(reversed(below.get(base, [])))
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(below.get(str(j.find("child").get("link")), [])))  # type: ignore[union-attr]
+    return base, order
+
+
+def chain_info(urdf: str) -> ChainInfo:
+    """Moving joints of the chain, in chain order, from the URDF text itself (xml, not an engine)."""
+    moving = [j for j in _tree(urdf)[1] if j.get("type") in MOVING]
     return ChainInfo(
         tuple(str(j.get("name")) for j in moving), tuple(str(j.get("type")) for j in moving)
     )
@@ -364,7 +379,7 @@ class NumpyChain:
         self.inertial: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}
         #: per massive link: the inertia tensor as written (in its inertial frame)
         self.written: dict[str, np.ndarray] = {}
-        for link in root.iter("link"):
+        for link in root.findall("link"):
             node = link.find("inertial")
             if node is None:
                 continue
@@ -381,16 +396,10 @@ class NumpyChain:
                 _floats(None if origin is None else origin.get("xyz")),
                 rot @ tensor @ rot.T,
             )
-        by_child = {j.find("child").get("link"): j for j in root.iter("joint")}  # type: ignore[union-attr]
-        parents = {j.find("parent").get("link") for j in root.iter("joint")}  # type: ignore[union-attr]
-        link = next(name for name in by_child if name not in parents)
-        chain = []
-        while link in by_child:
-            chain.append(by_child[link])
-            link = by_child[link].find("parent").get("link")  # type: ignore[union-attr]
-        self.root = link
+        self.root, order = _tree(urdf)
+        #: per joint in depth-first order: (type, xyz, origin rotation, axis, child, parent)
         self.joints = []
-        for j in reversed(chain):
+        for j in order:
             origin = j.find("origin")
             axis = j.find("axis")
             self.joints.append(
@@ -400,17 +409,19 @@ class NumpyChain:
                     rpy_matrix(_floats(None if origin is None else origin.get("rpy"))),
                     _floats(None if axis is None else axis.get("xyz"), "1 0 0"),
                     str(j.find("child").get("link")),  # type: ignore[union-attr]
+                    str(j.find("parent").get("link")),  # type: ignore[union-attr]
                 )
             )
 
     def frames(self, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, list]]:
         """Per link: (position, rotation) in the root frame and the moving joints before it
         as (index, type, world axis, world point)."""
-        pos, rot = np.zeros(3), np.eye(3)
-        out = {self.root: (pos, rot, [])}
-        movers: list = []
+        out: dict[str, tuple[np.ndarray, np.ndarray, list]] = {
+            self.root: (np.zeros(3), np.eye(3), [])
+        }
         i = 0
-        for kind, xyz, rpy_rot, axis, child in self.joints:
+        for kind, xyz, rpy_rot, axis, child, parent in self.joints:
+            pos, rot, movers = out[parent]
             pos = pos + rot @ xyz
             rot = rot @ rpy_rot
             if kind != "fixed":
@@ -422,6 +433,23 @@ class NumpyChain:
                     rot = rot @ _axis_rotation(axis, q[i])
                 i += 1
             out[child] = (pos, rot, movers)
+        return out
+
+    def reach(self, travel: np.ndarray) -> dict[str, tuple[float, bool]]:
+        """Per link: a bound on the distance of its frame from the root (the joint-origin
+        lengths on its path plus ``|travel|`` of the prismatic joints on it) and whether a
+        moving joint is on its path."""
+        out: dict[str, tuple[float, bool]] = {self.root: (0.0, False)}
+        i = 0
+        for kind, xyz, _, _, child, parent in self.joints:
+            dist, moves = out[parent]
+            dist += float(np.linalg.norm(xyz))
+            if kind != "fixed":
+                if kind == "prismatic":
+                    dist += abs(float(travel[i]))
+                moves = True
+                i += 1
+            out[child] = (dist, moves)
         return out
 
     def mass_and_potential(self, q: np.ndarray) -> tuple[np.ndarray, float]:
@@ -555,11 +583,25 @@ def _batch_scalar(model: pin.Model, fn, q: np.ndarray, *rest: np.ndarray) -> np.
 # ---------------------------------------------------------------------- MuJoCo
 def mujoco_model(urdf: str, gravity: float = 9.81) -> mujoco.MjModel:
     """MuJoCo's model of the URDF text (its URDF import fuses fixed links into their parent),
-    gravity ``(0, 0, -gravity)``, contacts and all constraints (the joint limits) disabled."""
+    gravity ``(0, 0, -gravity)``, contacts and all constraints (joint limits, friction loss)
+    disabled, and no passive forces: MuJoCo turns a URDF ``<dynamics damping>`` into joint
+    damping (the Panda's 0.003 N m s/rad changed its q̈ by ~1e-2), which rigid-body dynamics
+    (Pinocchio, ``SerialArm``) do not model; the springs, dampers and armature are zeroed and
+    the spring and damper forces disabled."""
     model = mujoco.MjModel.from_xml_string(urdf)
     model.opt.gravity[:] = (0.0, 0.0, -float(gravity))
-    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    bits = mujoco.mjtDisableBit
+    for bit in (
+        bits.mjDSBL_CONTACT,
+        bits.mjDSBL_CONSTRAINT,
+        bits.mjDSBL_SPRING,
+        bits.mjDSBL_DAMPER,
+    ):
+        model.opt.disableflags |= bit
+    model.dof_damping[:] = 0.0
+    model.dof_armature[:] = 0.0
+    model.dof_frictionloss[:] = 0.0
+    model.jnt_stiffness[:] = 0.0
     return model
 
 
