@@ -442,21 +442,67 @@ def mass_and_bias_into(
 
 
 @njit(**_OPTS)
-def _rotate_block(work: np.ndarray, i: int, src: int, dst: int) -> None:
-    """``R B R^T`` of the 3x3 block of the 6x6 articulated inertia at ``(src // 6, src % 6)``
-    (row-major offset into rows ``W_IA``) of body ``i``, into temporary rows ``dst`` (9)."""
-    for a in range(3):
-        for b in range(3):
-            s = 0.0
-            for k in range(3):
-                s += work[W_IA + src + 6 * a + k, i] * work[3 * b + k, i]
-            work[W_T + 18 + 3 * a + b, i] = s  # T = B R^T
-    for a in range(3):
-        for b in range(3):
-            s = 0.0
-            for k in range(3):
-                s += work[3 * a + k, i] * work[W_T + 18 + 3 * k + b, i]
-            work[dst + 3 * a + b, i] = s
+def _mat(
+    work: np.ndarray, row: int, i: int
+) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """The 3x3 matrix stored row-major in rows ``row..row+8`` of column ``i``."""
+    return (
+        work[row, i], work[row + 1, i], work[row + 2, i],
+        work[row + 3, i], work[row + 4, i], work[row + 5, i],
+        work[row + 6, i], work[row + 7, i], work[row + 8, i],
+    )  # fmt: skip
+
+
+@njit(**_OPTS)
+def _mul(a: tuple, b: tuple) -> tuple:
+    """``a b`` of 3x3 matrices as row-major 9-tuples."""
+    return (
+        a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
+        a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+        a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+        a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+        a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+        a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+        a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
+        a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+        a[6] * b[2] + a[7] * b[5] + a[8] * b[8],
+    )
+
+
+@njit(**_OPTS)
+def _mul_t(a: tuple, b: tuple) -> tuple:
+    """``a b^T`` of 3x3 matrices as row-major 9-tuples."""
+    return (
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2],
+        a[0] * b[3] + a[1] * b[4] + a[2] * b[5],
+        a[0] * b[6] + a[1] * b[7] + a[2] * b[8],
+        a[3] * b[0] + a[4] * b[1] + a[5] * b[2],
+        a[3] * b[3] + a[4] * b[4] + a[5] * b[5],
+        a[3] * b[6] + a[4] * b[7] + a[5] * b[8],
+        a[6] * b[0] + a[7] * b[1] + a[8] * b[2],
+        a[6] * b[3] + a[7] * b[4] + a[8] * b[5],
+        a[6] * b[6] + a[7] * b[7] + a[8] * b[8],
+    )
+
+
+@njit(**_OPTS)
+def _times_skew(a: tuple, rx: float, ry: float, rz: float) -> tuple:
+    """``a [r]x``: row ``k`` is ``-(r x a[k, :])``."""
+    return (
+        rz * a[1] - ry * a[2], rx * a[2] - rz * a[0], ry * a[0] - rx * a[1],
+        rz * a[4] - ry * a[5], rx * a[5] - rz * a[3], ry * a[3] - rx * a[4],
+        rz * a[7] - ry * a[8], rx * a[8] - rz * a[6], ry * a[6] - rx * a[7],
+    )  # fmt: skip
+
+
+@njit(**_OPTS)
+def _skew_times(a: tuple, rx: float, ry: float, rz: float) -> tuple:
+    """``[r]x a``: column ``k`` is ``r x a[:, k]``."""
+    return (
+        ry * a[6] - rz * a[3], ry * a[7] - rz * a[4], ry * a[8] - rz * a[5],
+        rz * a[0] - rx * a[6], rz * a[1] - rx * a[7], rz * a[2] - rx * a[8],
+        rx * a[3] - ry * a[0], rx * a[4] - ry * a[1], rx * a[5] - ry * a[2],
+    )  # fmt: skip
 
 
 @njit(**_OPTS)
@@ -480,6 +526,12 @@ def aba_known(
     added to the parent as :math:`X_i^T I^a X_i` and :math:`X_i^T p^a`. Pass 3 (root to tip):
     :math:`a' = X_i a_{i-1} + c_i`, :math:`\\ddot q_i = (u_i - U_i^T a') / D_i`,
     :math:`a_i = a' + S_i \\ddot q_i`.
+
+    :math:`I^A = [[A, B], [B^T, C]]` is kept as its blocks (rows ``W_IA``: ``A`` 0-8, ``B``
+    9-17, ``C`` 18-26, row-major). Carried to the parent, with :math:`\\tilde X = R X R^T`:
+    :math:`A' = \\tilde A - Y - Y^T - [r]_\\times \\tilde C [r]_\\times`,
+    :math:`B' = \\tilde B + [r]_\\times \\tilde C`, :math:`C' = \\tilde C`, where
+    :math:`Y = \\tilde B [r]_\\times`.
     """
     n = qd.shape[0]
     ia = W_IA
@@ -522,142 +574,180 @@ def aba_known(
         work[W_F + 3, i] = wy * f1z - wz * f1y
         work[W_F + 4, i] = wz * f1x - wx * f1z
         work[W_F + 5, i] = wx * f1y - wy * f1x
-        # I^A = I as a 6x6: [[I_o, [h]x], [[h]x^T, m 1]]
+        # I^A = I: A = I_o, B = [h]x, C = m 1
         m = p[P_MASS, i]
         hx = p[P_H, i]
         hy = p[P_H + 1, i]
         hz = p[P_H + 2, i]
-        work[ia + 0, i] = p[P_IO, i]
-        work[ia + 1, i] = p[P_IO + 3, i]
-        work[ia + 2, i] = p[P_IO + 4, i]
-        work[ia + 6, i] = p[P_IO + 3, i]
-        work[ia + 7, i] = p[P_IO + 1, i]
-        work[ia + 8, i] = p[P_IO + 5, i]
-        work[ia + 12, i] = p[P_IO + 4, i]
-        work[ia + 13, i] = p[P_IO + 5, i]
-        work[ia + 14, i] = p[P_IO + 2, i]
-        # [h]x in the upper right, its transpose in the lower left
-        work[ia + 3, i] = 0.0
-        work[ia + 4, i] = -hz
-        work[ia + 5, i] = hy
-        work[ia + 9, i] = hz
-        work[ia + 10, i] = 0.0
-        work[ia + 11, i] = -hx
-        work[ia + 15, i] = -hy
-        work[ia + 16, i] = hx
-        work[ia + 17, i] = 0.0
-        for a in range(3):
-            for b in range(3):
-                work[ia + 18 + 6 * a + b, i] = work[ia + 3 + 6 * b + a, i]
-                work[ia + 21 + 6 * a + b, i] = m if a == b else 0.0
+        xx = p[P_IO, i]
+        yy = p[P_IO + 1, i]
+        zz = p[P_IO + 2, i]
+        xy = p[P_IO + 3, i]
+        xz = p[P_IO + 4, i]
+        yz = p[P_IO + 5, i]
+        blocks = (
+            xx, xy, xz, xy, yy, yz, xz, yz, zz,
+            0.0, -hz, hy, hz, 0.0, -hx, -hy, hx, 0.0,
+            m, 0.0, 0.0, 0.0, m, 0.0, 0.0, 0.0, m,
+        )  # fmt: skip
+        for k in range(27):
+            work[ia + k, i] = blocks[k]
     for i in range(n - 1, -1, -1):
-        off = 0 if p[P_TYPE, i] == 0.0 else 3
         ax = p[P_AXIS, i]
         ay = p[P_AXIS + 1, i]
         az = p[P_AXIS + 2, i]
-        for k in range(6):
-            work[W_U + k, i] = (
-                work[ia + 6 * k + off, i] * ax
-                + work[ia + 6 * k + off + 1, i] * ay
-                + work[ia + 6 * k + off + 2, i] * az
-            )
-        d = ax * work[W_U + off, i] + ay * work[W_U + off + 1, i] + az * work[W_U + off + 2, i]
+        am = _mat(work, ia, i)
+        bm = _mat(work, ia + 9, i)
+        cm = _mat(work, ia + 18, i)
+        if p[P_TYPE, i] == 0.0:  # U = (A a, B^T a)
+            u0 = am[0] * ax + am[1] * ay + am[2] * az
+            u1 = am[3] * ax + am[4] * ay + am[5] * az
+            u2 = am[6] * ax + am[7] * ay + am[8] * az
+            u3 = bm[0] * ax + bm[3] * ay + bm[6] * az
+            u4 = bm[1] * ax + bm[4] * ay + bm[7] * az
+            u5 = bm[2] * ax + bm[5] * ay + bm[8] * az
+            d = ax * u0 + ay * u1 + az * u2
+            u = tau[i] - (ax * work[W_F, i] + ay * work[W_F + 1, i] + az * work[W_F + 2, i])
+        else:  # U = (B a, C a)
+            u0 = bm[0] * ax + bm[1] * ay + bm[2] * az
+            u1 = bm[3] * ax + bm[4] * ay + bm[5] * az
+            u2 = bm[6] * ax + bm[7] * ay + bm[8] * az
+            u3 = cm[0] * ax + cm[1] * ay + cm[2] * az
+            u4 = cm[3] * ax + cm[4] * ay + cm[5] * az
+            u5 = cm[6] * ax + cm[7] * ay + cm[8] * az
+            d = ax * u3 + ay * u4 + az * u5
+            u = tau[i] - (ax * work[W_F + 3, i] + ay * work[W_F + 4, i] + az * work[W_F + 5, i])
         if not d > 0.0:
             return False
-        u = tau[i] - (
-            ax * work[W_F + off, i] + ay * work[W_F + off + 1, i] + az * work[W_F + off + 2, i]
-        )
+        work[W_U, i] = u0
+        work[W_U + 1, i] = u1
+        work[W_U + 2, i] = u2
+        work[W_U + 3, i] = u3
+        work[W_U + 4, i] = u4
+        work[W_U + 5, i] = u5
         work[W_D, i] = d
         work[W_UU, i] = u
         if i == 0:
             break
-        # I^a = I^A - U U^T / D (in place), p^a = p^A + I^a c + U u / D
         rd = 1.0 / d
-        for a in range(6):
-            ua = work[W_U + a, i] * rd
-            for b in range(6):
-                work[ia + 6 * a + b, i] -= ua * work[W_U + b, i]
-        for a in range(6):
-            s = work[W_F + a, i] + work[W_U + a, i] * u * rd
-            for b in range(6):
-                s += work[ia + 6 * a + b, i] * work[W_A + b, i]
-            work[W_F + a, i] = s
-        # X^T I^a X into the parent: rotate the blocks A, B, C, then shift by r
-        _rotate_block(work, i, 0, W_T)  # A~
-        _rotate_block(work, i, 3, W_T + 9)  # B~
-        # C~ goes back into the (now unused) upper-left block rows
-        for a in range(3):
-            for b in range(3):
-                s = 0.0
-                for k in range(3):
-                    s += work[W_IA + 21 + 6 * a + k, i] * work[3 * b + k, i]
-                work[W_T + 18 + 3 * a + b, i] = s
-        for a in range(3):
-            for b in range(3):
-                s = 0.0
-                for k in range(3):
-                    s += work[3 * a + k, i] * work[W_T + 18 + 3 * k + b, i]
-                work[ia + 6 * a + b, i] = s  # C~ in rows ia + 0..14 (3x3 at stride 6)
+        # I^a = I^A - U U^T / D, blockwise
+        w0 = u0 * rd
+        w1 = u1 * rd
+        w2 = u2 * rd
+        am = (
+            am[0] - w0 * u0, am[1] - w0 * u1, am[2] - w0 * u2,
+            am[3] - w1 * u0, am[4] - w1 * u1, am[5] - w1 * u2,
+            am[6] - w2 * u0, am[7] - w2 * u1, am[8] - w2 * u2,
+        )  # fmt: skip
+        bm = (
+            bm[0] - w0 * u3, bm[1] - w0 * u4, bm[2] - w0 * u5,
+            bm[3] - w1 * u3, bm[4] - w1 * u4, bm[5] - w1 * u5,
+            bm[6] - w2 * u3, bm[7] - w2 * u4, bm[8] - w2 * u5,
+        )  # fmt: skip
+        w3 = u3 * rd
+        w4 = u4 * rd
+        w5 = u5 * rd
+        cm = (
+            cm[0] - w3 * u3, cm[1] - w3 * u4, cm[2] - w3 * u5,
+            cm[3] - w4 * u3, cm[4] - w4 * u4, cm[5] - w4 * u5,
+            cm[6] - w5 * u3, cm[7] - w5 * u4, cm[8] - w5 * u5,
+        )  # fmt: skip
+        # p^a = p^A + I^a c + U u / D
+        c0 = work[W_A, i]
+        c1 = work[W_A + 1, i]
+        c2 = work[W_A + 2, i]
+        c3 = work[W_A + 3, i]
+        c4 = work[W_A + 4, i]
+        c5 = work[W_A + 5, i]
+        ur = u * rd
+        pn0 = (
+            work[W_F, i]
+            + am[0] * c0
+            + am[1] * c1
+            + am[2] * c2
+            + bm[0] * c3
+            + bm[1] * c4
+            + bm[2] * c5
+            + u0 * ur
+        )
+        pn1 = (
+            work[W_F + 1, i]
+            + am[3] * c0
+            + am[4] * c1
+            + am[5] * c2
+            + bm[3] * c3
+            + bm[4] * c4
+            + bm[5] * c5
+            + u1 * ur
+        )
+        pn2 = (
+            work[W_F + 2, i]
+            + am[6] * c0
+            + am[7] * c1
+            + am[8] * c2
+            + bm[6] * c3
+            + bm[7] * c4
+            + bm[8] * c5
+            + u2 * ur
+        )
+        pf0 = (
+            work[W_F + 3, i]
+            + bm[0] * c0
+            + bm[3] * c1
+            + bm[6] * c2
+            + cm[0] * c3
+            + cm[1] * c4
+            + cm[2] * c5
+            + u3 * ur
+        )
+        pf1 = (
+            work[W_F + 4, i]
+            + bm[1] * c0
+            + bm[4] * c1
+            + bm[7] * c2
+            + cm[3] * c3
+            + cm[4] * c4
+            + cm[5] * c5
+            + u4 * ur
+        )
+        pf2 = (
+            work[W_F + 5, i]
+            + bm[2] * c0
+            + bm[5] * c1
+            + bm[8] * c2
+            + cm[6] * c3
+            + cm[7] * c4
+            + cm[8] * c5
+            + u5 * ur
+        )
+        # X^T I^a X: rotate the blocks into the parent's orientation, then shift by r
+        rm = _mat(work, W_ROT, i)
+        at = _mul_t(_mul(rm, am), rm)
+        bt = _mul_t(_mul(rm, bm), rm)
+        ct = _mul_t(_mul(rm, cm), rm)
         rx = work[W_POS, i]
         ry = work[W_POS + 1, i]
         rz = work[W_POS + 2, i]
+        y = _times_skew(bt, rx, ry, rz)
+        z = _skew_times(_times_skew(ct, rx, ry, rz), rx, ry, rz)
+        sc = _skew_times(ct, rx, ry, rz)
         j = i - 1
-        # Y = B~ [r]x: Y[a, :] = -(r x B~[a, :]); W = C~ [r]x likewise; Z = [r]x W
-        for a in range(3):
-            b0 = work[W_T + 9 + 3 * a, i]
-            b1 = work[W_T + 9 + 3 * a + 1, i]
-            b2 = work[W_T + 9 + 3 * a + 2, i]
-            work[W_T + 18 + 3 * a, i] = -(ry * b2 - rz * b1)
-            work[W_T + 18 + 3 * a + 1, i] = -(rz * b0 - rx * b2)
-            work[W_T + 18 + 3 * a + 2, i] = -(rx * b1 - ry * b0)
-        for a in range(3):
-            c0 = work[ia + 6 * a, i]
-            c1 = work[ia + 6 * a + 1, i]
-            c2 = work[ia + 6 * a + 2, i]
-            # W in the upper-right block's rows (B~ is saved in the temporaries)
-            work[ia + 6 * a + 3, i] = -(ry * c2 - rz * c1)
-            work[ia + 6 * a + 4, i] = -(rz * c0 - rx * c2)
-            work[ia + 6 * a + 5, i] = -(rx * c1 - ry * c0)
-        for b in range(3):
-            w0 = work[ia + 3 + b, i]
-            w1 = work[ia + 9 + b, i]
-            w2 = work[ia + 15 + b, i]
-            z0 = ry * w2 - rz * w1
-            z1 = rz * w0 - rx * w2
-            z2 = rx * w1 - ry * w0
-            for a in range(3):
-                za = z0 if a == 0 else (z1 if a == 1 else z2)
-                work[ia + 6 * a + b, j] += (
-                    work[W_T + 3 * a + b, i]
-                    - work[W_T + 18 + 3 * a + b, i]
-                    - work[W_T + 18 + 3 * b + a, i]
-                    - za
-                )
-        for a in range(3):
-            c0 = work[ia + 6 * a, i]
-            c1 = work[ia + 6 * a + 1, i]
-            c2 = work[ia + 6 * a + 2, i]
-            for b in range(3):
-                # B'' = B~ + [r]x C~: column b of [r]x C~ is r x C~[:, b]
-                cb0 = work[ia + b, i]
-                cb1 = work[ia + 6 + b, i]
-                cb2 = work[ia + 12 + b, i]
-                if a == 0:
-                    sc = ry * cb2 - rz * cb1
-                elif a == 1:
-                    sc = rz * cb0 - rx * cb2
-                else:
-                    sc = rx * cb1 - ry * cb0
-                bb = work[W_T + 9 + 3 * a + b, i] + sc
-                work[ia + 6 * a + 3 + b, j] += bb
-                work[ia + 18 + 6 * b + a, j] += bb
-            work[ia + 21 + 6 * a, j] += c0
-            work[ia + 21 + 6 * a + 1, j] += c1
-            work[ia + 21 + 6 * a + 2, j] += c2
-        nx, ny, nz, fx, fy, fz = _force_out(
-            work, i, work[W_F, i], work[W_F + 1, i], work[W_F + 2, i],
-            work[W_F + 3, i], work[W_F + 4, i], work[W_F + 5, i],
-        )  # fmt: skip
+        work[ia, j] += at[0] - 2.0 * y[0] - z[0]
+        work[ia + 4, j] += at[4] - 2.0 * y[4] - z[4]
+        work[ia + 8, j] += at[8] - 2.0 * y[8] - z[8]
+        a01 = at[1] - y[1] - y[3] - z[1]
+        a02 = at[2] - y[2] - y[6] - z[2]
+        a12 = at[5] - y[5] - y[7] - z[5]
+        work[ia + 1, j] += a01
+        work[ia + 3, j] += a01
+        work[ia + 2, j] += a02
+        work[ia + 6, j] += a02
+        work[ia + 5, j] += a12
+        work[ia + 7, j] += a12
+        for k in range(9):
+            work[ia + 9 + k, j] += bt[k] + sc[k]
+            work[ia + 18 + k, j] += ct[k]
+        nx, ny, nz, fx, fy, fz = _force_out(work, i, pn0, pn1, pn2, pf0, pf1, pf2)
         work[W_F, j] += nx
         work[W_F + 1, j] += ny
         work[W_F + 2, j] += nz
@@ -862,7 +952,7 @@ def coriolis_into(
         diag = 2.0 * (hr[0] * r[0] + hr[1] * r[1] + hr[2] * r[2]) + m * (
             r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
         )
-        iw = np.zeros((3, 3))  # noqa: allocation only in this numpy-API kernel
+        iw = np.zeros((3, 3))  # the one allocation: this kernel serves the numpy API only
         for a in range(3):
             for b in range(3):
                 s = 0.0

@@ -49,8 +49,8 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def _vec(values: Sequence[float]) -> str:
-    return " ".join(_num(v) for v in values)
+def _vec(values: ArrayLike) -> str:
+    return " ".join(_num(v) for v in np.asarray(values, dtype=float).reshape(-1))
 
 
 def _rpy(rot: FloatArray) -> tuple[float, float, float]:
@@ -66,7 +66,12 @@ def _quat(rot: FloatArray) -> tuple[float, float, float, float]:
     tr = rot[0, 0] + rot[1, 1] + rot[2, 2]
     if tr > 0:
         s = 2.0 * math.sqrt(1.0 + tr)
-        return (0.25 * s, (rot[2, 1] - rot[1, 2]) / s, (rot[0, 2] - rot[2, 0]) / s, (rot[1, 0] - rot[0, 1]) / s)
+        return (
+            0.25 * s,
+            (rot[2, 1] - rot[1, 2]) / s,
+            (rot[0, 2] - rot[2, 0]) / s,
+            (rot[1, 0] - rot[0, 1]) / s,
+        )
     i = int(np.argmax([rot[0, 0], rot[1, 1], rot[2, 2]]))
     j, k = (i + 1) % 3, (i + 2) % 3
     s = 2.0 * math.sqrt(max(1.0 + rot[i, i] - rot[j, j] - rot[k, k], 0.0))
@@ -114,7 +119,7 @@ def _parse_joints(text: str, where: str) -> tuple[str, dict[str, dict[str, Any]]
     if root.tag != "robot":
         raise ValueError(f"{where} is not a URDF: its root element is <{root.tag}>, not <robot>")
     joints: dict[str, dict[str, Any]] = {}
-    for el in root.iter("joint"):
+    for el in root.findall("joint"):
         name = el.get("name", "")
         kind = el.get("type", "")
         if kind in ("floating", "planar"):
@@ -134,7 +139,9 @@ def _parse_joints(text: str, where: str) -> tuple[str, dict[str, dict[str, Any]]
             )
         limit = el.find("limit")
 
-        def attr(key: str, default: float, limit: ET.Element | None = limit) -> float:
+        def attr(
+            key: str, default: float, limit: ET.Element | None = limit, name: str = name
+        ) -> float:
             if limit is None or limit.get(key) is None:
                 return default
             try:
@@ -165,7 +172,9 @@ def _pin_axis(joint: Any, q0: FloatArray, name: str, where: str) -> tuple[str, F
     motion subspace ``S = (linear, angular)``."""
     short = joint.shortname()
     if joint.nv != 1 or "Mimic" in short or "Helical" in short:
-        raise ValueError(f"joint {name!r} of {where} is a {short} in Pinocchio; slidingarm cannot model it")
+        raise ValueError(
+            f"joint {name!r} of {where} is a {short} in Pinocchio; slidingarm cannot model it"
+        )
     data = joint.createData()
     joint.calc(data, q0)
     motion = np.asarray(data.S, dtype=float).reshape(6)
@@ -201,7 +210,11 @@ class _CapturedStderr:
         self._file.seek(0)
         raw = self._file.read(65536).decode("utf-8", "replace")
         self._file.close()
-        lines = [ln.strip() for ln in raw.splitlines() if ln.strip() and not ln.strip().startswith("at line")]
+        lines = [
+            ln.strip()
+            for ln in raw.splitlines()
+            if ln.strip() and not ln.strip().startswith("at line")
+        ]
         self.text = "; ".join(lines[:3])
 
 
@@ -247,6 +260,17 @@ class SerialArm(ArmModel):
     """
 
     KIND = D.KIND_SERIAL
+
+    _table: FloatArray
+    _gravity: float
+    _name: str
+    _joints: tuple[str, ...]
+    _types: tuple[str, ...]
+    _links: tuple[str, ...]
+    _frames: dict[str, tuple[int, FloatArray, FloatArray]]
+    _tool: str
+    _limits: dict[str, FloatArray]
+    _root: str
 
     def __init__(
         self,
@@ -297,7 +321,11 @@ class SerialArm(ArmModel):
         lim: dict[str, FloatArray] = {}
         for key in ("lower", "upper", "effort", "velocity"):
             default = -math.inf if key == "lower" else math.inf
-            value = np.full(n, default) if limits is None or key not in limits else np.array(limits[key], dtype=float)
+            value = (
+                np.full(n, default)
+                if limits is None or key not in limits
+                else np.array(limits[key], dtype=float)
+            )
             if value.shape != (n,):
                 raise ValueError(f"limits[{key!r}] must have {n} values, got shape {value.shape}")
             value.setflags(write=False)
@@ -384,7 +412,13 @@ class SerialArm(ArmModel):
             table[SK.P_AXIS : SK.P_AXIS + 3, i - 1] = axis
             table[SK.P_TYPE, i - 1] = 1.0 if kind == "prismatic" else 0.0
             inertia = model.inertias[i]
-            _set_inertia(table, i - 1, float(inertia.mass), np.asarray(inertia.lever), np.asarray(inertia.inertia))
+            _set_inertia(
+                table,
+                i - 1,
+                float(inertia.mass),
+                np.asarray(inertia.lever),
+                np.asarray(inertia.inertia),
+            )
             names.append(jname)
             types.append(urdf_joints[jname]["type"] if jname in urdf_joints else kind)
         frames: dict[str, tuple[int, FloatArray, FloatArray]] = {}
@@ -408,17 +442,30 @@ class SerialArm(ArmModel):
             best = -1
             tool_name = links[-1]
             for fid, frame in enumerate(model.frames):
-                if frame.type == pin.FrameType.BODY and int(frame.parentJoint) == n and depth[fid] > best:
+                if (
+                    frame.type == pin.FrameType.BODY
+                    and int(frame.parentJoint) == n
+                    and depth[fid] > best
+                ):
                     best = depth[fid]
                     tool_name = str(frame.name)
         else:
             if not isinstance(tool, str):
                 raise ParameterTypeError(f"tool must be a link name, got {tool!r}")
             if tool not in frames:
-                raise ValueError(f"tool {tool!r} is not a link of {where}; its links are {sorted(frames)}")
+                raise ValueError(
+                    f"tool {tool!r} is not a link of {where}; its links are {sorted(frames)}"
+                )
             tool_name = tool
         limits = {
-            key: np.array([urdf_joints[j][key] if j in urdf_joints else (-math.inf if key == "lower" else math.inf) for j in names])
+            key: np.array(
+                [
+                    urdf_joints[j][key]
+                    if j in urdf_joints
+                    else (-math.inf if key == "lower" else math.inf)
+                    for j in names
+                ]
+            )
             for key in ("lower", "upper", "effort", "velocity")
         }
         return cls(
@@ -439,15 +486,23 @@ class SerialArm(ArmModel):
         allowed = {"gravity", "tool", "name"}
         unknown = sorted(set(changes) - allowed)
         if unknown:
-            raise TypeError(f"SerialArm.replace() got unknown parameter(s) {unknown}; allowed: {sorted(allowed)}")
+            raise TypeError(
+                f"SerialArm.replace() got unknown parameter(s) {unknown}; allowed: {sorted(allowed)}"
+            )
         return self._with(
             self._table,
-            gravity=changes.get("gravity", self._gravity),  # type: ignore[arg-type]
-            tool=changes.get("tool", self._tool),  # type: ignore[arg-type]
-            name=changes.get("name", self._name),  # type: ignore[arg-type]
+            gravity=changes.get("gravity", self._gravity),
+            tool=changes.get("tool", self._tool),
+            name=changes.get("name", self._name),
         )
 
-    def _with(self, table: FloatArray, *, frames: Mapping[str, tuple[int, ArrayLike, ArrayLike]] | None = None, **kw: Any) -> SerialArm:
+    def _with(
+        self,
+        table: FloatArray,
+        *,
+        frames: Mapping[str, tuple[int, ArrayLike, ArrayLike]] | None = None,
+        **kw: Any,
+    ) -> SerialArm:
         args: dict[str, Any] = {
             "gravity": self._gravity, "name": self._name, "joints": self._joints, "types": self._types,
             "links": self._links, "frames": self._frames if frames is None else frames, "tool": self._tool,
@@ -469,10 +524,14 @@ class SerialArm(ArmModel):
             raise ValueError(f"payload mass must be a finite value >= 0 kg, got {mass!r}")
         name = self._tool if link is None else link
         if not isinstance(name, str) or name not in self._frames:
-            raise ValueError(f"payload link {name!r} is not a link of {self._name!r}; links: {sorted(self._frames)}")
+            raise ValueError(
+                f"payload link {name!r} is not a link of {self._name!r}; links: {sorted(self._frames)}"
+            )
         body, _, org = self._frames[name]
         if body < 0:
-            raise ValueError(f"payload link {name!r} is fixed to the root; a payload there changes nothing")
+            raise ValueError(
+                f"payload link {name!r} is fixed to the root; a payload there changes nothing"
+            )
         table = self._table.copy()
         m, c, ic = _get_inertia(table, body)
         h = m * c + p * org
@@ -513,7 +572,7 @@ class SerialArm(ArmModel):
 
     @property
     def params(self) -> FloatArray:
-        return self._table  # type: ignore[no-any-return]
+        return self._table
 
     @property
     def name(self) -> str:
@@ -523,17 +582,17 @@ class SerialArm(ArmModel):
     @property
     def joint_names(self) -> tuple[str, ...]:
         """The moving joints' names, root to tip."""
-        return self._joints  # type: ignore[no-any-return]
+        return self._joints
 
     @property
     def joint_types(self) -> tuple[str, ...]:
         """``"revolute"``, ``"continuous"`` or ``"prismatic"`` per joint."""
-        return self._types  # type: ignore[no-any-return]
+        return self._types
 
     @property
     def link_names(self) -> tuple[str, ...]:
         """The link each joint moves."""
-        return self._links  # type: ignore[no-any-return]
+        return self._links
 
     @property
     def frame_names(self) -> tuple[str, ...]:
@@ -553,7 +612,7 @@ class SerialArm(ArmModel):
     @property
     def masses(self) -> FloatArray:
         """Each body's mass (kg), fixed links merged in."""
-        return self._table[SK.P_MASS].copy()  # type: ignore[no-any-return]
+        return self._table[SK.P_MASS].copy()
 
     @property
     def total_mass(self) -> float:
@@ -602,7 +661,9 @@ class SerialArm(ArmModel):
         (default: the tool) in the root frame."""
         name = self._tool if frame is None else frame
         if not isinstance(name, str) or name not in self._frames:
-            raise ValueError(f"frame {name!r} is not a link of {self._name!r}; links: {sorted(self._frames)}")
+            raise ValueError(
+                f"frame {name!r} is not a link of {self._name!r}; links: {sorted(self._frames)}"
+            )
         body, r, o = self._frames[name]
         pos, rot = self.body_poses(q)
         if body < 0:
@@ -636,7 +697,10 @@ class SerialArm(ArmModel):
     def to_urdf(self, name: str | None = None) -> str:
         """URDF text of this arm (after any payload or scaling): one link per body with its
         merged inertial, its moving joint, and the fixed links as massless fixed children."""
-        parts = [f'<?xml version="1.0"?>\n<robot name="{name or self._name}">', f'  <link name="{self._root}"/>']
+        parts = [
+            f'<?xml version="1.0"?>\n<robot name="{name or self._name}">',
+            f'  <link name="{self._root}"/>',
+        ]
         extra = self._frame_children()
         lim = self._limits
         for i in range(self.n):
@@ -714,7 +778,9 @@ class SerialArm(ArmModel):
             if i == self.n - 1 or self._frames[self._tool][0] == i:
                 body, r, o = self._frames[self._tool]
                 if body == i:
-                    lines.append(f'{indent}  <site name="tool" pos="{_vec(o)}" quat="{_vec(_quat(r))}"/>')
+                    lines.append(
+                        f'{indent}  <site name="tool" pos="{_vec(o)}" quat="{_vec(_quat(r))}"/>'
+                    )
             indent += "  "
         for _ in range(self.n):
             indent = indent[:-2]
@@ -736,7 +802,13 @@ def _set_io(table: FloatArray, i: int, m: float, h: FloatArray, io: FloatArray) 
 
 def _set_inertia(table: FloatArray, i: int, m: float, c: FloatArray, ic: FloatArray) -> None:
     """Store a body of mass ``m``, centre of mass ``c`` and centroidal inertia ``ic``."""
-    _set_io(table, i, m, m * np.asarray(c, dtype=float), _io(m, np.asarray(c, dtype=float), np.asarray(ic, dtype=float)))
+    _set_io(
+        table,
+        i,
+        m,
+        m * np.asarray(c, dtype=float),
+        _io(m, np.asarray(c, dtype=float), np.asarray(ic, dtype=float)),
+    )
 
 
 def _get_inertia(table: FloatArray, i: int) -> tuple[float, FloatArray, FloatArray]:

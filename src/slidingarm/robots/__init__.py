@@ -93,6 +93,10 @@ def path(name: str) -> Path:
     return Path(str(resources.files(__name__).joinpath(name, f"{name}.urdf")))
 
 
+#: Each robot's default tool frame: the link a user means by "the tool".
+_TOOLS = {"panda": "panda_hand_tcp", "ur5": "tool0"}
+
+
 def load(name: str, *, gravity: float = 9.81, tool: str | None = None) -> SerialArm:
     """Build the :class:`~slidingarm.models.serial.SerialArm` of a shipped robot.
 
@@ -105,8 +109,8 @@ def load(name: str, *, gravity: float = 9.81, tool: str | None = None) -> Serial
     gravity : float, default 9.81
         Gravitational acceleration (m/s²), along ``-z`` of the robot's root link.
     tool : str or None, default None
-        Passed to :meth:`SerialArm.from_urdf` unchanged (the frame of the tool; ``None`` for
-        its default).
+        The tool frame's link; by default the robot's flange or tool centre point
+        (``tool0`` of the UR5, ``panda_hand_tcp`` of the Panda).
 
     Returns
     -------
@@ -123,7 +127,7 @@ def load(name: str, *, gravity: float = 9.81, tool: str | None = None) -> Serial
     urdf = path(name)
     from slidingarm.models.serial import SerialArm
 
-    return SerialArm.from_urdf(urdf, gravity=gravity, tool=tool)
+    return SerialArm.from_urdf(urdf, gravity=gravity, tool=_TOOLS[name] if tool is None else tool)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,183 @@
+"""Cost of one closed-loop step on the UR5: the compiled loop against the same loop stepping
+Pinocchio from Python, and the dynamics kernels against Pinocchio's.
+
+Run as ``python benchmarks/bench_serial.py [--repeats R]``. Prints medians (and the 10th-90th
+percentile spread) of microseconds, and the ratios measured in this one run:
+
+1. **compiled step**: ``simulate`` on the UR5 (FTSMC, tanh, exact nominal model, quintic
+   reference, full record) for 1 s and for 5 s at ``dt = 1 ms``; the difference over the
+   4000 extra steps is the cost of one step — the law (``M`` by the composite-rigid-body
+   algorithm, ``h`` by Newton-Euler, a Cholesky solve) plus one RK4 step (four
+   articulated-body passes) plus recording — without the per-run set-up.
+2. **Pinocchio from Python**: the same law with ``pin.rnea`` (``τ = M u + h`` in one call)
+   and RK4 with four ``pin.aba`` calls, in a Python loop with numpy for the rest.
+3. The kernels one state at a time from a jitted loop: ``M`` + ``h``, and ``q̈``, against
+   ``pin.crba`` + ``pin.rnea`` and ``pin.aba`` called from Python (the call overhead is part
+   of what a Python loop pays).
+
+Targets (issue 9): compiled step <= 5 µs and >= 20x faster than the Pinocchio loop.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from collections.abc import Callable
+
+import numba
+import numpy as np
+import pinocchio as pin
+from numba import njit
+
+from slidingarm import FTSMC, QuinticReference, robots, simulate
+from slidingarm.models import _dispatch as D
+
+DT = 1e-3
+GAINS = {"alpha": 2.0, "beta": 2.0, "p": 5, "q": 3, "k": 20.0, "switching": "tanh", "width": 0.05}
+
+
+def _stats(x: np.ndarray) -> str:
+    return f"{np.median(x):8.2f} µs  [{np.percentile(x, 10):.2f}, {np.percentile(x, 90):.2f}]"
+
+
+def _time(fn: Callable[[], object], repeats: int, per: int) -> np.ndarray:
+    fn()
+    out = np.empty(repeats)
+    for r in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        out[r] = (time.perf_counter() - t0) / per * 1e6
+    return out
+
+
+def compiled_step(repeats: int) -> np.ndarray:
+    arm = robots.load("ur5")
+    ctrl = FTSMC(arm, **GAINS)  # type: ignore[arg-type]
+    q0 = np.zeros(arm.n)
+    ref = QuinticReference(q0, np.full(arm.n, 0.5), duration=5.0)
+
+    def run(t_final: float) -> float:
+        t0 = time.perf_counter()
+        res = simulate(arm, ctrl, ref, q0=q0, t_final=t_final, dt=DT)
+        assert res.success, res.message
+        return time.perf_counter() - t0
+
+    run(1.0)
+    out = np.empty(repeats)
+    for r in range(repeats):
+        short = min(run(1.0) for _ in range(3))
+        long_ = min(run(5.0) for _ in range(3))
+        out[r] = (long_ - short) / 4000 * 1e6
+    return out
+
+
+def pinocchio_step(repeats: int, steps: int = 500) -> np.ndarray:
+    """The closed loop of :func:`compiled_step` with Pinocchio from Python."""
+    model = pin.buildModelFromUrdf(str(robots.path("ur5")))
+    data = model.createData()
+    n = model.nv
+    a, b, pq, k, w = 2.0, 2.0, 5.0 / 3.0, 20.0, 0.05
+    q_end = np.full(n, 0.5)
+
+    def loop() -> None:
+        q = np.zeros(n)
+        qd = np.zeros(n)
+        for i in range(steps):
+            t = i * DT
+            s_ = min(t / 5.0, 1.0)
+            p = 10 * s_**3 - 15 * s_**4 + 6 * s_**5
+            qr = p * q_end
+            qdr = q_end * 30 * s_**2 * (1 - s_) ** 2 / 5.0
+            qddr = q_end * 60 * s_ * (1 - s_) * (1 - 2 * s_) / 25.0
+            e = q - qr
+            ed = qd - qdr
+            ae = np.abs(e)
+            s = ed + a * e + b * np.sign(e) * ae**pq
+            u = qddr - a * ed - b * pq * ae ** (pq - 1) * ed - k * np.tanh(s / w)
+            tau = pin.rnea(model, data, q, qd, u)
+            k1 = pin.aba(model, data, q, qd, tau).copy()
+            k2 = pin.aba(model, data, q + 0.5 * DT * qd, qd + 0.5 * DT * k1, tau).copy()
+            v2 = qd + 0.5 * DT * k1
+            k3 = pin.aba(model, data, q + 0.5 * DT * v2, qd + 0.5 * DT * k2, tau).copy()
+            v3 = qd + 0.5 * DT * k2
+            k4 = pin.aba(model, data, q + DT * v3, qd + DT * k3, tau).copy()
+            v4 = qd + DT * k3
+            q = q + DT / 6 * (qd + 2 * v2 + 2 * v3 + v4)
+            qd = qd + DT / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+    return _time(loop, repeats, steps)
+
+
+@njit(cache=False)
+def _mh_loop(kind, p, g, q, qd, mm, h):  # type: ignore[no-untyped-def]  # pragma: no cover
+    work = np.empty((D.WORK_ROWS, q.shape[1]))
+    for i in range(q.shape[0]):
+        D.mass_and_bias(kind, p, g, q[i], qd[i], mm[i], h[i], work)
+
+
+@njit(cache=False)
+def _fd_loop(kind, p, g, q, qd, tau, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    work = np.empty((D.WORK_ROWS, q.shape[1]))
+    for i in range(q.shape[0]):
+        D.forward_dynamics(kind, p, g, q[i], qd[i], tau[i], out[i], work)
+
+
+def kernels(repeats: int, batch: int = 1000) -> dict[str, np.ndarray]:
+    arm = robots.load("ur5")
+    hd = arm.handle
+    model = pin.buildModelFromUrdf(str(robots.path("ur5")))
+    data = model.createData()
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-np.pi, np.pi, (batch, arm.n))
+    qd = rng.normal(size=(batch, arm.n))
+    tau = rng.normal(size=(batch, arm.n)) * 10
+    mm = np.empty((batch, arm.n, arm.n))
+    h = np.empty((batch, arm.n))
+    out = np.empty((batch, arm.n))
+    small = 200
+
+    def pin_mh() -> None:
+        for i in range(small):
+            pin.crba(model, data, q[i])
+            pin.rnea(model, data, q[i], qd[i], np.zeros(arm.n))
+
+    def pin_fd() -> None:
+        for i in range(small):
+            pin.aba(model, data, q[i], qd[i], tau[i])
+
+    return {
+        "M + h, compiled": _time(
+            lambda: _mh_loop(hd.kind, hd.params, hd.g, q, qd, mm, h), repeats, batch
+        ),
+        "M + h, pin.crba + pin.rnea from Python": _time(pin_mh, repeats, small),
+        "q̈, compiled (articulated body)": _time(
+            lambda: _fd_loop(hd.kind, hd.params, hd.g, q, qd, tau, out), repeats, batch
+        ),
+        "q̈, pin.aba from Python": _time(pin_fd, repeats, small),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=7)
+    args = ap.parse_args()
+    print(
+        f"# {platform.processor() or platform.machine()}, numba {numba.__version__}, pin {pin.__version__}, threads {numba.config.NUMBA_NUM_THREADS}"
+    )
+    ours = compiled_step(args.repeats)
+    theirs = pinocchio_step(args.repeats)
+    print("UR5 closed-loop step (law + one RK4 step), median [p10, p90]:")
+    print(f"  compiled loop (simulate)      {_stats(ours)}   target <= 5 µs")
+    print(f"  Pinocchio from Python         {_stats(theirs)}")
+    print(
+        f"  ratio Pinocchio / compiled    {np.median(theirs) / np.median(ours):8.1f}x   target >= 20x"
+    )
+    print("UR5 dynamics, one state:")
+    res = kernels(args.repeats)
+    for name, x in res.items():
+        print(f"  {name:<40} {_stats(x)}")
+
+
+if __name__ == "__main__":
+    main()
