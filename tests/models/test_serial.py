@@ -281,19 +281,6 @@ EXTRAS = """  <material name="grey"><color rgba="0.5 0.5 0.5 1"/></material>
 """
 
 
-#: SerialArm.from_urdf reads every ``<joint>`` element of the file (``root.iter("joint")`` in
-#: serial._parse_joints), so a ``<transmission>``'s joint reference is taken for a joint of
-#: type '' and the URDF is refused; Pinocchio and MuJoCo read it. Reproducer:
-#: /tmp/serial_failures/transmission.urdf. Strict: these pass once SerialArm reads only
-#: ``<robot>``'s own joints, and the marks must then go.
-TRANSMISSION_BUG = pytest.mark.xfail(
-    strict=True,
-    raises=ValueError,
-    reason="SerialArm takes a <transmission>'s <joint> reference for a joint of type ''",
-)
-
-
-@TRANSMISSION_BUG
 def test_transmissions_and_other_elements_are_not_joints() -> None:
     """A URDF with a ``<transmission>`` (as the UR5 of ``slidingarm.robots`` has) is the same
     arm as without it."""
@@ -314,7 +301,7 @@ def _robot_urdf(name: str) -> Path:
     return Path(robots.path(name))
 
 
-@pytest.mark.parametrize("name", ["panda", pytest.param("ur5", marks=TRANSMISSION_BUG)])
+@pytest.mark.parametrize("name", ["panda", "ur5"])
 def test_shipped_robots_match_pinocchio_and_mujoco(name: str) -> None:
     """The vendored Panda and UR5 (real inertial data, ``<dynamics>`` damping that rigid-body
     dynamics leave out, transmissions) on 200 random states, 50 of them fast."""
