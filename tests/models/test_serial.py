@@ -769,3 +769,35 @@ def test_pickle_round_trip(index: int) -> None:
     ref_pos, ref_rot = c.arm.frame_pose(c.q[0])
     np.testing.assert_array_equal(pos, ref_pos)
     np.testing.assert_array_equal(rot, ref_rot)
+
+
+@pytest.mark.parametrize("index", range(0, 60, 6))
+def test_rk4_step_is_classical_rk4_on_pinocchio_dynamics(index: int) -> None:
+    """The compiled RK4 step (its stages' sines and cosines rotated from the step's start)
+    equals classical RK4 over Pinocchio's q̈, for steps whose stage increments are below and
+    above the 2^-5 rad where the rotation hands over to sin/cos."""
+    c = _case(index)
+    arm = c.arm
+    model = c.model
+    plant = SteppedArm(arm)  # type: ignore[arg-type]
+    rng = np.random.default_rng(index)
+    for h, speed in ((1e-3, 1.0), (1e-3, 30.0), (5e-2, 3.0)):
+        q0 = rng.uniform(-np.pi, np.pi, arm.n)
+        v0 = rng.normal(size=arm.n) * speed
+        tau = rng.normal(size=arm.n) * 5.0
+
+        def f(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+            return pin_aba(model, q[None], v[None], tau[None])[0]  # noqa: B023
+
+        k1 = f(q0, v0)
+        k2 = f(q0 + 0.5 * h * v0, v0 + 0.5 * h * k1)
+        k3 = f(q0 + 0.5 * h * (v0 + 0.5 * h * k1), v0 + 0.5 * h * k2)
+        k4 = f(q0 + h * (v0 + 0.5 * h * k2), v0 + h * k3)
+        v2, v3, v4 = v0 + 0.5 * h * k1, v0 + 0.5 * h * k2, v0 + h * k3
+        q_ref = q0 + h / 6 * (v0 + 2 * v2 + 2 * v3 + v4)
+        v_ref = v0 + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        q, v = q0.copy(), v0.copy()
+        assert plant.step(q, v, tau, h)
+        scale = max(1.0, float(np.max(np.abs(v_ref))))
+        assert np.max(np.abs(q - q_ref)) <= 1e-12 * scale
+        assert np.max(np.abs(v - v_ref)) <= 1e-9 * scale
