@@ -18,7 +18,7 @@ from slidingarm.control import (
     tsm_convergence_time,
 )
 from slidingarm.disturbances import ConstantTorque, ModelMismatch, RandomTorque, SinusoidalTorque
-from slidingarm.models import ArmModel, PlanarArm, SteppedArm, SteppedPlant
+from slidingarm.models import ArmModel, MujocoPlant, PlanarArm, SteppedArm, SteppedPlant
 from slidingarm.references import (
     PAPER_DT,
     PAPER_Q0,
@@ -64,6 +64,7 @@ __all__ = [
     "GaussianNoise",
     "LevantDifferentiator",
     "ModelMismatch",
+    "MujocoPlant",
     "PaperReference",
     "PlanarArm",
     "QuinticReference",
