@@ -19,7 +19,14 @@ from slidingarm.control import (
     tsm_convergence_time,
 )
 from slidingarm.disturbances import ConstantTorque, ModelMismatch, RandomTorque, SinusoidalTorque
-from slidingarm.models import ArmModel, PlanarArm, SerialArm, SteppedArm, SteppedPlant
+from slidingarm.models import (
+    ArmModel,
+    MujocoPlant,
+    PlanarArm,
+    SerialArm,
+    SteppedArm,
+    SteppedPlant,
+)
 from slidingarm.references import (
     PAPER_DT,
     PAPER_Q0,
@@ -65,6 +72,7 @@ __all__ = [
     "GaussianNoise",
     "LevantDifferentiator",
     "ModelMismatch",
+    "MujocoPlant",
     "PaperReference",
     "PlanarArm",
     "QuinticReference",

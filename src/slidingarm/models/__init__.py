@@ -2,6 +2,7 @@
 Python-stepped plants."""
 
 from slidingarm.models.base import ArmModel, ModelHandle
+from slidingarm.models.mujoco_plant import MujocoPlant
 from slidingarm.models.planar import MassModel, PlanarArm
 from slidingarm.models.serial import SerialArm
 from slidingarm.models.stepped import SteppedArm, SteppedPlant
@@ -10,6 +11,7 @@ __all__ = [
     "ArmModel",
     "MassModel",
     "ModelHandle",
+    "MujocoPlant",
     "PlanarArm",
     "SerialArm",
     "SteppedArm",
