@@ -25,10 +25,8 @@ from typing import Any
 
 import numpy as np
 from numba import njit, types
-from numba.core import cgutils
-from numba.core.types.function_type import WrapperAddressProtocol
-from numba.extending import intrinsic
 
+from slidingarm._pointers import FunctionPointer, function_at
 from slidingarm.control import _kernels as CK
 from slidingarm.models import _dispatch as MD
 
@@ -53,67 +51,10 @@ ENTRY_SIGNATURE = types.void(
 ENTRY_TYPE = types.FunctionType(ENTRY_SIGNATURE)
 
 
-class FunctionPointer(WrapperAddressProtocol):
-    """A compiled function as a first-class function of ``signature``.
-
-    Numba types it by its signature alone, so passing different functions to one compiled
-    function does not compile (or cache) that function again. Pickles as its function (a
-    module-level ``@njit`` function pickles by reference) and signature; the address is
-    looked up again in the receiving process.
-    """
-
-    def __init__(self, function: Any, signature: Any = KERNEL_SIGNATURE) -> None:
-        from numba.experimental.function_type import _get_wrapper_address
-
-        function.compile(signature.args)
-        self.function = function
-        self._signature = signature
-        self._address = int(_get_wrapper_address(function, signature))
-
-    def __wrapper_address__(self) -> int:
-        return self._address
-
-    @property
-    def address(self) -> int:
-        """The address of the function's C wrapper: what the loop takes (an int64 unboxes in
-        nanoseconds, this object in about 17 µs), made a function again by :func:`kernel_at`
-        or :func:`entry_at`. Valid while the function lives (this object holds it)."""
-        return self._address
-
-    def signature(self) -> Any:
-        return self._signature
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        return (FunctionPointer, (self.function, self._signature))
-
-
-def _function_at(fnty: Any) -> Any:
-    """An intrinsic turning an int64 address of a C wrapper of signature ``fnty`` into a
-    first-class function of that type (what numba builds when it unboxes a pointer object,
-    without the Python calls)."""
-
-    @intrinsic
-    def at(typingctx, addr):  # type: ignore[no-untyped-def]
-        if not isinstance(addr, types.Integer):
-            return None
-
-        def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
-            sfunc = cgutils.create_struct_proxy(fnty)(context, builder)
-            voidptr = context.get_value_type(types.voidptr)
-            sfunc.c_addr = builder.inttoptr(args[0], voidptr)
-            sfunc.py_addr = cgutils.get_null_value(voidptr)
-            sfunc.jit_addr = cgutils.get_null_value(voidptr)
-            return sfunc._getvalue()
-
-        return fnty(addr), codegen
-
-    return at
-
-
 #: ``kernel_at(address)``: the kernel at an address (:attr:`FunctionPointer.address`).
-kernel_at = _function_at(KERNEL_TYPE)
+kernel_at = function_at(KERNEL_TYPE)
 #: ``entry_at(address)``: the entry at an address (:attr:`FunctionPointer.address`).
-entry_at = _function_at(ENTRY_TYPE)
+entry_at = function_at(ENTRY_TYPE)
 
 
 class NullPointer:

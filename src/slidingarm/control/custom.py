@@ -127,7 +127,7 @@ class CustomController(Controller):
         if len(set(names)) != len(names) or {"params", "name", "state_size"} & set(names):
             raise ValueError(f"gains must be distinct names other than params/name, got {names}")
         try:
-            pointer = LD.FunctionPointer(kernel)
+            pointer = LD.FunctionPointer(kernel, LD.KERNEL_SIGNATURE)
         except Exception as exc:  # numba's typing errors are long; say what is expected
             raise ParameterTypeError(
                 f"kernel {getattr(kernel, '__name__', kernel)!r} does not compile for the "

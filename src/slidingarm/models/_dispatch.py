@@ -23,8 +23,10 @@ only contract between kernels through ``work``.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
+from slidingarm._pointers import FunctionPointer, function_at
+from slidingarm._pointers import as_writable as _w
 from slidingarm.models import _kernels as PK
 from slidingarm.models import _spatial as SK
 
@@ -41,6 +43,54 @@ WORK_ROWS = max(PK.WORK_ROWS, SK.WORK_ROWS)
 
 _OPTS = {"cache": True, "nogil": True, "error_model": "numpy", "inline": "always"}
 
+# ---------------------------------------------------------------------- the serial kind's kernels
+# The serial kind's kernels are reached through the addresses of their C wrappers, kept in
+# column 0 of rows SK.P_FN + FN_* of the kind's parameter table (an address is below 2**53,
+# so a float64 holds it exactly): the loop every arm shares then compiles none of them, and
+# they are compiled (and cached) when a serial arm is first used. A call through an address
+# costs tens of nanoseconds against microseconds of spatial algebra.
+_V = types.float64[::1]
+_M = types.float64[:, ::1]
+_F = types.float64
+SERIAL_SIGNATURES = (
+    ("mass_matrix_into", types.void(_M, _V, _M, _M)),
+    ("coriolis_into", types.void(_M, _F, _V, _V, _M, _M)),
+    ("gravity_into", types.void(_M, _F, _V, _V, _M)),
+    ("bias_into", types.void(_M, _F, _V, _V, _V, _M)),
+    ("mass_and_bias_into", types.void(_M, _F, _V, _V, _M, _V, _M)),
+    ("inverse_dynamics_into", types.void(_M, _F, _V, _V, _V, _V, _M)),
+    ("forward_dynamics_into", types.boolean(_M, _F, _V, _V, _V, _V, _M)),
+    ("potential_energy", types.float64(_M, _F, _V, _M)),
+    ("rk4_step", types.boolean(_M, _F, _V, _V, _V, _F, types.boolean, _M, _M)),
+)
+(FN_MASS, FN_CORIOLIS, FN_GRAVITY, FN_BIAS, FN_MASS_BIAS, FN_INVERSE, FN_FORWARD,
+ FN_POTENTIAL, FN_RK4) = range(len(SERIAL_SIGNATURES))  # fmt: skip
+mass_matrix_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_MASS][1]))
+coriolis_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_CORIOLIS][1]))
+gravity_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_GRAVITY][1]))
+bias_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_BIAS][1]))
+mass_and_bias_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_MASS_BIAS][1]))
+inverse_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_INVERSE][1]))
+forward_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_FORWARD][1]))
+potential_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_POTENTIAL][1]))
+rk4_at = function_at(types.FunctionType(SERIAL_SIGNATURES[FN_RK4][1]))
+
+_SERIAL_POINTERS: list[FunctionPointer] = []
+
+
+def serial_addresses() -> list[float]:
+    """The addresses of the serial kind's kernels, in ``FN_*`` order (compiled on first use)."""
+    if not _SERIAL_POINTERS:
+        _SERIAL_POINTERS.extend(
+            FunctionPointer(getattr(SK, name), sig) for name, sig in SERIAL_SIGNATURES
+        )
+    return [float(f.address) for f in _SERIAL_POINTERS]
+
+
+@njit(**_OPTS)
+def _fn(params: np.ndarray, k: int) -> int:
+    return np.int64(params[SK.P_FN + k, 0])
+
 
 @njit(**_OPTS)
 def mass_matrix(
@@ -50,7 +100,7 @@ def mass_matrix(
     if kind == KIND_PLANAR:
         PK.mass_matrix_into(params, q, out, work)
     elif kind == KIND_SERIAL:
-        SK.mass_matrix_into(params, q, out, work)
+        mass_matrix_at(_fn(params, FN_MASS))(_w(params), _w(q), _w(out), _w(work))
 
 
 @njit(**_OPTS)
@@ -67,7 +117,7 @@ def coriolis(
     if kind == KIND_PLANAR:
         PK.coriolis_into(params, q, qd, out, work)
     elif kind == KIND_SERIAL:
-        SK.coriolis_into(params, g, q, qd, out, work)
+        coriolis_at(_fn(params, FN_CORIOLIS))(_w(params), g, _w(q), _w(qd), _w(out), _w(work))
 
 
 @njit(**_OPTS)
@@ -78,7 +128,7 @@ def gravity_torque(
     if kind == KIND_PLANAR:
         PK.gravity_into(params, g, q, out, work)
     elif kind == KIND_SERIAL:
-        SK.gravity_into(params, g, q, out, work)
+        gravity_at(_fn(params, FN_GRAVITY))(_w(params), g, _w(q), _w(out), _w(work))
 
 
 @njit(**_OPTS)
@@ -95,7 +145,7 @@ def bias(
     if kind == KIND_PLANAR:
         PK.bias_into(params, g, q, qd, out, work)
     elif kind == KIND_SERIAL:
-        SK.bias_into(params, g, q, qd, out, work)
+        bias_at(_fn(params, FN_BIAS))(_w(params), g, _w(q), _w(qd), _w(out), _w(work))
 
 
 @njit(**_OPTS)
@@ -113,7 +163,9 @@ def mass_and_bias(
     if kind == KIND_PLANAR:
         PK.mass_and_bias_into(params, g, q, qd, mmat, h, work)
     elif kind == KIND_SERIAL:
-        SK.mass_and_bias_into(params, g, q, qd, mmat, h, work)
+        mass_and_bias_at(_fn(params, FN_MASS_BIAS))(
+            _w(params), g, _w(q), _w(qd), _w(mmat), _w(h), _w(work)
+        )
 
 
 @njit(**_OPTS)
@@ -134,7 +186,9 @@ def inverse_dynamics(
         PK.angles_into(q, work)
         PK._rnea_from_angles(params, g, qd, qdd, 1.0, out, work)
     elif kind == KIND_SERIAL:
-        SK.inverse_dynamics_into(params, g, q, qd, qdd, out, work)
+        inverse_at(_fn(params, FN_INVERSE))(
+            _w(params), g, _w(q), _w(qd), _w(qdd), _w(out), _w(work)
+        )
 
 
 @njit(**_OPTS)
@@ -153,7 +207,9 @@ def forward_dynamics(
     if kind == KIND_PLANAR:
         return PK.forward_dynamics_into(params, g, q, qd, tau, out, work)
     if kind == KIND_SERIAL:
-        return SK.forward_dynamics_into(params, g, q, qd, tau, out, work)
+        return forward_at(_fn(params, FN_FORWARD))(
+            _w(params), g, _w(q), _w(qd), _w(tau), _w(out), _w(work)
+        )
     return False
 
 
@@ -165,7 +221,7 @@ def potential_energy(
     if kind == KIND_PLANAR:
         return PK.potential_energy(params, g, q, work)
     if kind == KIND_SERIAL:
-        return SK.potential_energy(params, g, q, work)
+        return potential_at(_fn(params, FN_POTENTIAL))(_w(params), g, _w(q), _w(work))
     return np.nan
 
 
@@ -190,7 +246,9 @@ def rk4_step(
     if kind == KIND_PLANAR:
         return PK.rk4_step(params, g, q, qd, tau, h, known, scratch, work)
     if kind == KIND_SERIAL:
-        return SK.rk4_step(params, g, q, qd, tau, h, known, scratch, work)
+        return rk4_at(_fn(params, FN_RK4))(
+            _w(params), g, _w(q), _w(qd), _w(tau), h, known, _w(scratch), _w(work)
+        )
     return False
 
 

@@ -44,8 +44,10 @@ import math
 import numpy as np
 from numba import njit
 
-#: Rows of the parameter table.
+#: Rows of the parameter table (the physical ones; the kind's table adds the kernels' addresses
+#: in rows ``P_FN..``, see :mod:`slidingarm.models._dispatch`).
 ROWS = 26
+P_FN = 26
 P_AXIS = 12
 P_TYPE = 15
 P_MASS = 16

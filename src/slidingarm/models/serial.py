@@ -572,6 +572,21 @@ class SerialArm(ArmModel):
 
     @property
     def params(self) -> FloatArray:
+        """The kind's table: the ``(26, n)`` physical rows (:attr:`table`) and, in column 0
+        of the rows below, the addresses of the serial kind's compiled kernels (looked up,
+        and on the first arm compiled, when first asked for; never pickled)."""
+        cached: FloatArray | None = getattr(self, "_kernel_table", None)
+        if cached is None:
+            cached = np.zeros((SK.ROWS + len(D.SERIAL_SIGNATURES), self.n))
+            cached[: SK.ROWS] = self._table
+            cached[SK.P_FN :, 0] = D.serial_addresses()
+            cached.setflags(write=False)
+            object.__setattr__(self, "_kernel_table", cached)
+        return cached
+
+    @property
+    def table(self) -> FloatArray:
+        """The ``(26, n)`` physical parameter table (:mod:`slidingarm.models._spatial`)."""
         return self._table
 
     @property
