@@ -89,7 +89,7 @@ def serial_addresses() -> list[float]:
 
 @njit(**_OPTS)
 def _fn(params: np.ndarray, k: int) -> int:
-    return np.int64(params[SK.P_FN + k, 0])
+    return int(params[SK.P_FN + k, 0])
 
 
 @njit(**_OPTS)
