@@ -240,10 +240,11 @@ def test_shipped_scenarios_share_one_set_of_gains() -> None:
 
     gains = {name: load_shipped(name).gains for name in SCENARIOS}
     assert len({g.model_dump_json() for g in gains.values()}) == 1
-    # the numbers are stated once: only the base file holds a [gains] table
+    # the numbers are stated once: only the base file of each family holds a [gains] table
+    # (paper.toml for the study, ur5.toml for the UR5's pair)
     for path in scenarios_dir().glob("*.toml"):
         has_gains = "gains" in tomllib.loads(path.read_text(encoding="utf-8"))
-        assert has_gains == (path.name == "paper.toml"), path.name
+        assert has_gains == (path.name in ("paper.toml", "ur5.toml")), path.name
     assert load_shipped("sign").switching == "sign"
     assert load_shipped("tanh").switching == "tanh"
     noise = load_shipped("noise")
@@ -258,7 +259,7 @@ def test_base_alone_is_not_a_scenario() -> None:
 
 
 def test_unknown_shipped_name() -> None:
-    with pytest.raises(ConfigError, match="sign, tanh, noise"):
+    with pytest.raises(ConfigError, match="sign, tanh, noise, ur5, ur5_sign"):
         scenario_path("nope")
 
 
