@@ -635,9 +635,7 @@ def test_a_robot_replaces_the_planar_plant_of_the_base(tmp_path: Path) -> None:
          "joint 3 (elbow_joint) reaches "),
     ],
 )  # fmt: skip
-def test_serial_arm_errors_name_the_key(
-    tmp_path: Path, extra: str, path: str, reason: str
-) -> None:
+def test_serial_arm_errors_name_the_key(tmp_path: Path, extra: str, path: str, reason: str) -> None:
     msg = error_of(serial(tmp_path, extra))
     assert msg.startswith(f"{tmp_path / 's.toml'}: {path}: {reason}")
 
