@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from slidingarm import __version__
 from slidingarm.cli import EXIT_FAILED, EXIT_USAGE, app
-from slidingarm.study import SCENARIOS, load_shipped
+from slidingarm.study import SCENARIOS, SHIPPED, load_shipped
 
 runner = CliRunner()
 
@@ -79,7 +79,7 @@ def test_list_names_every_choice() -> None:
         "payload",
     ):
         assert word in out, word
-    for name in SCENARIOS:
+    for name in SHIPPED:  # the study's scenarios and the UR5's
         assert f"\n  {name} " in out
 
 
@@ -177,7 +177,7 @@ def test_run_missing_config(tmp_path: Path) -> None:
     code, _, err = invoke("run", "nonesuch", "--out", str(tmp_path / "o"))
     assert code == EXIT_USAGE
     line = one_line_error(err)
-    assert "nonesuch: no such file (nor the name of a shipped scenario: sign, tanh, noise)" in line
+    assert "nonesuch: no such file (nor the name of a shipped scenario: sign, tanh, noise, ur5, ur5_sign)" in line
     assert not (tmp_path / "o").exists()
 
 
@@ -204,7 +204,7 @@ def test_python_dash_m() -> None:
     assert done.returncode == EXIT_USAGE
     assert done.stdout == ""
     assert done.stderr.strip().splitlines() == [
-        "error: nonesuch.toml: no such file (nor the name of a shipped scenario: sign, tanh, noise)"
+        "error: nonesuch.toml: no such file (nor the name of a shipped scenario: sign, tanh, noise, ur5, ur5_sign)"
     ]
 
 

@@ -240,10 +240,11 @@ def test_shipped_scenarios_share_one_set_of_gains() -> None:
 
     gains = {name: load_shipped(name).gains for name in SCENARIOS}
     assert len({g.model_dump_json() for g in gains.values()}) == 1
-    # the numbers are stated once: only the base file holds a [gains] table
+    # the numbers are stated once: only the base file of each family holds a [gains] table
+    # (paper.toml for the study, ur5.toml for the UR5's pair)
     for path in scenarios_dir().glob("*.toml"):
         has_gains = "gains" in tomllib.loads(path.read_text(encoding="utf-8"))
-        assert has_gains == (path.name == "paper.toml"), path.name
+        assert has_gains == (path.name in ("paper.toml", "ur5.toml")), path.name
     assert load_shipped("sign").switching == "sign"
     assert load_shipped("tanh").switching == "tanh"
     noise = load_shipped("noise")
@@ -258,7 +259,7 @@ def test_base_alone_is_not_a_scenario() -> None:
 
 
 def test_unknown_shipped_name() -> None:
-    with pytest.raises(ConfigError, match="sign, tanh, noise"):
+    with pytest.raises(ConfigError, match="sign, tanh, noise, ur5, ur5_sign"):
         scenario_path("nope")
 
 
@@ -488,3 +489,242 @@ def test_type_checks_keep_the_schema_bounds() -> None:
     dropout = defs["DropoutFaultSpec"]["properties"]
     assert dropout["joint"]["minimum"] == 1
     assert (dropout["probability"]["minimum"], dropout["probability"]["maximum"]) == (0, 1)
+
+
+# ---------------------------------------------------------------------------- serial arms
+
+SERIAL = """
+switching = "tanh"
+
+[plant]
+robot = "ur5"
+
+[reference]
+kind = "quintic"
+q_start = [0.0, -1.3, 1.3, -1.6, -1.57, 0.0]
+q_end = [0.5, -1.0, 1.0, -1.2, -1.2, 0.5]
+duration = 1.0
+
+[simulation]
+t_final = 0.1
+dt = 5e-4
+q0 = [0.0, -1.3, 1.3, -1.6, -1.57, 0.0]
+
+[gains]
+alpha = 2.0
+beta = 2.0
+p = 5
+q = 3
+k = 20.0
+width = 0.05
+
+[[controllers]]
+name = "pdsmc"
+
+[[controllers]]
+name = "ftsmc"
+"""
+
+
+def serial(tmp_path: Path, extra: str = "", name: str = "s.toml") -> Path:
+    """A UR5 scenario extended with ``extra``."""
+    write(tmp_path, SERIAL, "ur5base.toml")
+    return write(tmp_path, 'extends = "ur5base.toml"\n' + textwrap.dedent(extra), name)
+
+
+def test_robot_builds_the_serial_arm_for_plant_and_controllers(tmp_path: Path) -> None:
+    from slidingarm import SerialArm, robots
+
+    setup = load_scenario(serial(tmp_path, "[mismatch]\npayload = 1.0\n")).build()
+    ur5 = robots.load("ur5")
+    assert isinstance(setup.nominal, SerialArm) and setup.nominal == ur5
+    assert setup.nominal.tool == "tool0"
+    # the payload is the plant's, not the controllers'
+    assert setup.plant == ur5.with_payload(1.0)
+    assert setup.plant.total_mass == pytest.approx(ur5.total_mass + 1.0)
+    for c in setup.controllers.values():
+        assert c.model == ur5
+    # tool and gravity reach the arm
+    other = load_scenario(
+        serial(tmp_path, '[plant]\ntool = "wrist_3_link"\ngravity = 1.62\n', "moon.toml")
+    ).build()
+    assert other.nominal == ur5.replace(tool="wrist_3_link", gravity=1.62)
+
+
+def test_payload_link_of_a_serial_arm(tmp_path: Path) -> None:
+    from slidingarm import robots
+
+    path = serial(tmp_path, '[mismatch]\npayload = 2.0\npayload_link = "forearm_link"\n')
+    setup = load_scenario(path).build()
+    ur5 = robots.load("ur5")
+    assert setup.plant == ur5.with_payload(2.0, link="forearm_link")
+    assert setup.plant != ur5.with_payload(2.0)
+
+
+def test_mismatch_errors_scale_a_serial_arm(tmp_path: Path) -> None:
+    from slidingarm import robots
+
+    text = "[mismatch]\nmass_error = [0.1, 0.0, 0.0, 0.0, 0.0, -0.1]\nlength_error = 0.05\n"
+    setup = load_scenario(serial(tmp_path, text)).build()
+    factors = np.array([1.1, 1.0, 1.0, 1.0, 1.0, 0.9])
+    assert setup.plant == robots.load("ur5").scaled(mass=factors, length=1.05)
+
+
+def test_a_robot_replaces_the_planar_plant_of_the_base(tmp_path: Path) -> None:
+    # the base's preset and mass_model do not leak into a robot plant
+    text = """
+    [plant]
+    robot = "ur5"
+
+    [reference]
+    kind = "sine"
+    offset = [0.0, -1.3, 1.3, -1.6, -1.57, 0.0]
+    amplitude = 0.2
+    frequency = [0.2, 0.3, 0.2, 0.4, 0.3, 0.5]
+
+    [simulation]
+    q0 = [0.0, -1.3, 1.3, -1.6, -1.57, 0.0]
+    """
+    setup = load_scenario(with_base(tmp_path, text)).build()
+    assert setup.nominal.n == 6 and setup.reference.n == 6
+
+
+@pytest.mark.parametrize(
+    ("extra", "path", "reason"),
+    [
+        ('[plant]\nrobot = "ur6"\n', "plant.robot",
+         "must be a shipped robot, one of panda, ur5; got 'ur6'"),
+        ('[plant]\ntool = "hand"\n', "plant.tool", "tool frame 'hand' is not a link of 'ur5'"),
+        ('[mismatch]\npayload = 1.0\npayload_link = "nolink"\n', "mismatch.payload_link",
+         "payload link 'nolink' is not a link of 'ur5'"),
+        ('[mismatch]\npayload_link = "wrist_2_link"\n', "mismatch.payload_link",
+         "says where the payload sits, but mismatch.payload is 0 kg"),
+        ("[mismatch]\nmass_error = [0.1, 0.2]\n", "mismatch.mass_error",
+         "has 2 values but the arm has 6 joints (give a scalar or 6 values)"),
+        ("[simulation]\nq0 = [0.0, 0.0, 0.0]\n", "simulation.q0",
+         "has 3 values but the arm has 6 joints (give 6 values)"),
+        ("[simulation]\nqd0 = [0.0]\n", "simulation.qd0",
+         "has 1 values but the arm has 6 joints (give 6 values)"),
+        ("[gains]\nk = [1.0, 2.0, 3.0]\n", "gains.k",
+         "has 3 values but the arm has 6 joints (give a scalar or 6 values)"),
+        ("[reference]\nq_end = [0.5, -1.0, 1.0]\n", "reference.q_end",
+         "has 3 values but the arm has 6 joints (give 6 values)"),
+        ('[reference]\nkind = "paper"\n', "reference.kind",
+         "the paper's reference describes 3 joints but the arm has 6"),
+        ('[reference]\nkind = "sine"\noffset = [0.0, -1.3, 1.3, -1.6, -1.57, 0.0]\n'
+         "amplitude = [0.1, 0.1]\nfrequency = 0.5\n", "reference.amplitude",
+         "has 2 values but the arm has 6 joints (give a scalar or 6 values)"),
+        ('[reference]\nkind = "table"\nt = [0.0, 1.0]\n'
+         "q = [[0.0, -1.3, 1.3, -1.6, -1.57, 0.0], [0.0, -1.3, 1.3]]\nends = \"rest\"\n",
+         "reference.q[1]", "has 3 values but the arm has 6 joints (give 6 values)"),
+        # URDF position limits (the UR5's elbow is within ±π, the others within ±2π)
+        ("[simulation]\nq0 = [0.0, -1.3, 3.3, -1.6, -1.57, 0.0]\n", "simulation.q0",
+         "joint 3 (elbow_joint) starts at 3.3 rad, above its URDF upper limit 3.14159 rad"),
+        ("[reference]\nq_end = [0.5, -6.5, 1.0, -1.2, -1.2, 0.5]\n", "reference.q_end",
+         "joint 2 (shoulder_lift_joint) is at -6.5 rad there, below its URDF lower limit "
+         "-6.28319 rad (the reference must stay within the joint limits)"),
+        ('[reference]\nkind = "sine"\noffset = [0.0, -1.3, 2.9, -1.6, -1.57, 0.0]\n'
+         "amplitude = 0.3\nfrequency = 2.0\n", "reference.amplitude",
+         "joint 3 (elbow_joint) reaches 3.14271 rad at t = 0.075 s, above its URDF upper limit "
+         "3.14159 rad"),
+        # a spline through waypoints inside the limits that overshoots them between two
+        ('[reference]\nkind = "table"\nends = "rest"\nt = [0.0, 0.03, 0.06, 0.1]\n'
+         "q = [[0.0, -1.3, 2.0, -1.6, -1.57, 0.0], [0.0, -1.3, 3.1, -1.6, -1.57, 0.0], "
+         "[0.0, -1.3, 3.1, -1.6, -1.57, 0.0], [0.0, -1.3, 2.0, -1.6, -1.57, 0.0]]\n"
+         "[simulation]\nq0 = [0.0, -1.3, 2.0, -1.6, -1.57, 0.0]\n", "reference.q",
+         "joint 3 (elbow_joint) reaches "),
+    ],
+)  # fmt: skip
+def test_serial_arm_errors_name_the_key(tmp_path: Path, extra: str, path: str, reason: str) -> None:
+    msg = error_of(serial(tmp_path, extra))
+    assert msg.startswith(f"{tmp_path / 's.toml'}: {path}: {reason}")
+
+
+@pytest.mark.parametrize(
+    ("lines", "reason"),
+    [
+        ('preset = "paper"\nmass_model = "rod"',
+         "robot describes a serial arm, so the planar keys preset, mass_model do not apply; "
+         "remove them (got robot and preset, mass_model)"),
+        ("masses = [1.0]\nlengths = [1.0]",
+         "robot describes a serial arm, so the planar keys masses, lengths do not apply; "
+         "remove them (got robot and masses, lengths)"),
+        ('urdf = "arm.urdf"', "give either robot (a shipped robot) or urdf (a URDF file), not both"),
+    ],
+)  # fmt: skip
+def test_serial_keys_exclude_the_planar_ones(tmp_path: Path, lines: str, reason: str) -> None:
+    text = SERIAL.replace('robot = "ur5"', f'robot = "ur5"\n{lines}')
+    assert error_of(write(tmp_path, text)) == f"{tmp_path / 's.toml'}: plant: {reason}"
+
+
+def test_planar_arms_refuse_serial_keys(tmp_path: Path) -> None:
+    msg = error_of(with_base(tmp_path, '[mismatch]\npayload = 1.0\npayload_link = "link3"\n'))
+    assert msg == (
+        f"{tmp_path / 's.toml'}: mismatch.payload_link: names a link of a robot or URDF arm; "
+        "a planar arm's payload sits at its tip (remove payload_link)"
+    )
+    msg = error_of(with_base(tmp_path, '[plant]\ntool = "tip"\n'))
+    assert msg.startswith(f"{tmp_path / 's.toml'}: plant: tool names a link of a robot or URDF")
+    text = MINIMAL.replace('preset = "paper"', "gravity = 9.81")
+    msg = error_of(write(tmp_path, text))
+    assert msg == (
+        f"{tmp_path / 's.toml'}: plant: needs preset = 'paper' or both masses and lengths "
+        "(a planar arm), or robot (one of panda, ur5) or urdf (a serial arm)"
+    )
+
+
+def test_urdf_is_relative_to_the_file_that_names_it(tmp_path: Path) -> None:
+    from slidingarm import SerialArm, robots
+
+    arms = tmp_path / "arms"
+    arms.mkdir()
+    (arms / "ur5.urdf").write_bytes(robots.path("ur5").read_bytes())
+    # the base, in arms/, names its URDF next to it; the scenario extends it from elsewhere
+    write(arms, SERIAL.replace('robot = "ur5"', 'urdf = "ur5.urdf"\ntool = "tool0"'), "base.toml")
+    path = write(tmp_path, 'extends = "arms/base.toml"\nname = "x"\n')
+    scenario = load_scenario(path)
+    nominal = scenario.build().nominal
+    assert isinstance(nominal, SerialArm) and nominal == robots.load("ur5")
+    # the exported TOML holds the absolute path, so the copy runs from anywhere
+    exported = scenario.to_dict()["plant"]["urdf"]
+    assert exported == str((arms / "ur5.urdf").resolve())
+    elsewhere = tmp_path / "out" / "config"
+    elsewhere.mkdir(parents=True)
+    assert load_scenario(write(elsewhere, scenario.to_toml(), "x.toml")).build().nominal == nominal
+
+
+def test_urdf_errors_name_plant_urdf(tmp_path: Path) -> None:
+    text = SERIAL.replace('robot = "ur5"', 'urdf = "missing.urdf"')
+    msg = error_of(write(tmp_path, text))
+    assert msg.startswith(f"{tmp_path / 's.toml'}: plant.urdf: cannot read URDF file ")
+    assert str(tmp_path / "missing.urdf") in msg
+    (tmp_path / "junk.urdf").write_text("<robot name='x'><link name='a'/>", encoding="utf-8")
+    msg = error_of(write(tmp_path, text.replace("missing.urdf", "junk.urdf")))
+    assert ": plant.urdf: " in msg and "is not valid XML" in msg
+    (tmp_path / "float.urdf").write_text(
+        "<robot name='f'><link name='a'/><link name='b'/><joint name='j' type='floating'>"
+        "<parent link='a'/><child link='b'/></joint></robot>",
+        encoding="utf-8",
+    )
+    msg = error_of(write(tmp_path, text.replace("missing.urdf", "float.urdf")))
+    assert ": plant.urdf: joint 'j' of URDF file " in msg and "is a floating joint" in msg
+
+
+def test_serial_config_errors_exit_2_with_one_line(tmp_path: Path) -> None:
+    from test_cli import invoke, one_line_error
+
+    for extra, key in [
+        ('[plant]\nrobot = "ur6"\n', "plant.robot"),
+        ('[plant]\ntool = "hand"\n', "plant.tool"),
+        ("[simulation]\nq0 = [0.0, 0.0, 0.0]\n", "simulation.q0"),
+        ("[simulation]\nq0 = [0.0, -1.3, 3.3, -1.6, -1.57, 0.0]\n", "simulation.q0"),
+    ]:
+        path = serial(tmp_path, extra)
+        for verb in (["validate", str(path)], ["run", str(path), "--out", str(tmp_path / "o")]):
+            code, _, err = invoke(*verb)
+            assert code == 2
+            assert one_line_error(err).startswith(f"error: {path}: {key}: ")
+    assert not (tmp_path / "o").exists()
+    text = SERIAL.replace('robot = "ur5"', 'urdf = "missing.urdf"')
+    code, _, err = invoke("validate", str(write(tmp_path, text)))
+    assert code == 2 and ": plant.urdf: cannot read URDF file " in one_line_error(err)

@@ -16,10 +16,12 @@ from matplotlib.figure import Figure
 from slidingarm.plotting import (
     FIGURES,
     REFERENCE_STYLE,
+    TOOL_FIGURES,
     controller_style,
     plot_error,
     plot_sliding,
     plot_steady_state,
+    plot_tool_path,
     plot_torque,
     plot_tracking,
     plot_velocity,
@@ -203,6 +205,71 @@ def test_sliding_uses_symlog_and_steady_state_zooms_on_the_last_window() -> None
     assert fig.axes[0].get_yscale() == "log"
     for line in fig.axes[0].get_lines():
         assert np.nanmin(np.asarray(line.get_ydata())) > 0.0
+
+
+@pytest.mark.parametrize("n", [6, 7])
+def test_many_joints_go_in_a_two_column_grid(n: int) -> None:
+    # a 6- or 7-joint arm: rows of two panels, each column's lowest panel carries the time axis
+    fig = plot_torque(_results(n))
+    axes = fig.axes
+    assert len(axes) == n
+    assert {a.get_subplotspec().colspan.start for a in axes} == {0, 1}
+    rows = -(-n // 2)
+    assert fig.get_figheight() < 1.6 + 1.4 * n  # shorter than one column of n panels
+    labelled = [a for a in axes if a.get_xlabel()]
+    assert len(labelled) == 2 and all("(s)" in a.get_xlabel() for a in labelled)
+    assert {a.get_subplotspec().rowspan.start for a in labelled} == (
+        {rows - 1} if n % 2 == 0 else {rows - 1, rows - 2}
+    )
+    # the panel above an empty last cell shows its tick labels
+    for a in labelled:
+        assert any(t.get_visible() for t in a.get_xticklabels())
+    for i, a in enumerate(axes):
+        assert f"τ{'₀₁₂₃₄₅₆₇'[i + 1]}" in a.get_ylabel()
+
+
+def _paths(n: int = 3) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    t = np.linspace(0.0, 2.0 * np.pi, 5000)
+    desired = np.stack([0.5 + 0.1 * np.cos(t), 0.2 * np.sin(t), 0.4 + 0.05 * t], axis=1)
+    actual = {name: desired + 0.001 * k for k, name in enumerate(CONTROLLERS[:n])}
+    return desired, actual
+
+
+def test_tool_path_draws_three_projections_from_arrays() -> None:
+    desired, actual = _paths()
+    fig = plot_tool_path(actual, desired, max_points=500)
+    axes = fig.axes
+    assert len(axes) == 3
+    assert [(a.get_xlabel(), a.get_ylabel()) for a in axes] == [
+        ("x (m)", "y (m)"), ("x (m)", "z (m)"), ("y (m)", "z (m)"),
+    ]  # fmt: skip
+    for a, (h, v) in zip(axes, [(0, 1), (0, 2), (1, 2)], strict=True):
+        assert sorted(_labelled(a)) == sorted([*LABELS, "reference"])
+        ftsmc = next(line for line in a.get_lines() if line.get_label() == "FTSMC")
+        np.testing.assert_allclose(ftsmc.get_xdata()[[0, -1]], actual["ftsmc"][[0, -1], h])
+        np.testing.assert_allclose(ftsmc.get_ydata()[[0, -1]], actual["ftsmc"][[0, -1], v])
+        assert len(ftsmc.get_xdata()) <= 501
+        assert a.get_aspect() == 1.0
+    assert fig.legends and fig.get_suptitle() == "Tool path"
+    # into the caller's axes, and without a desired path
+    host = Figure()
+    given = list(host.subplots(1, 3))
+    assert plot_tool_path({"ftsmc": desired}, ax=given, title=None) is host
+    assert [_labelled(a) for a in given] == [["FTSMC"]] * 3
+    with pytest.raises(ValueError, match=r"paths\['a'\] must be a path of shape \(T, 3\)"):
+        plot_tool_path({"a": np.zeros((10, 2))})
+    with pytest.raises(ValueError, match="paths is empty"):
+        plot_tool_path({})
+
+
+def test_scenario_figures_add_the_tool_path_of_a_serial_arm() -> None:
+    desired, actual = _paths()
+    figs = scenario_figures(_results(6), title="UR5", tool_paths=actual, tool_reference=desired)
+    assert tuple(figs) == FIGURES + TOOL_FIGURES
+    assert "UR5" in figs["tool_path"].get_suptitle()
+    assert tuple(scenario_figures(_results(3), title="x", only=["torque"])) == ("torque",)
+    with pytest.raises(ValueError, match="unknown figure 'tool_path'"):
+        scenario_figures(_results(3), title="planar", only=["tool_path"])
 
 
 def test_scenario_figures_has_every_figure_titled() -> None:

@@ -524,6 +524,40 @@ def test_table_minimum_sizes_work() -> None:
     TableReference(range(4), np.arange(4.0), spline="cubic")
 
 
+@pytest.mark.parametrize("spline", ["quintic", "cubic"])
+def test_table_at_rest_starts_and_ends_at_rest(spline: str) -> None:
+    # a few waypoints of a 6-joint arm: the spline goes through each and is at rest at the ends
+    t = [0.0, 1.5, 3.0, 5.0]
+    q = np.array([[0.0, -1.3, 1.3, -1.6, -1.57, 0.0], [0.6, -1.6, 1.7, -1.2, -1.1, 0.6],
+                  [1.0, -1.0, 1.0, -1.9, -1.9, 1.2], [0.0, -1.3, 1.3, -1.6, -1.57, 0.0]])
+    ref = TableReference(t, q, spline=spline, ends="rest")  # type: ignore[arg-type]
+    assert ref.n == 6 and ref.ends == "rest"
+    pos, vel, acc = ref.evaluate(np.array(t))
+    np.testing.assert_allclose(pos, q, atol=1e-14)
+    np.testing.assert_allclose(vel[[0, -1]], 0.0, atol=1e-13)
+    if spline == "quintic":
+        np.testing.assert_allclose(acc[[0, -1]], 0.0, atol=1e-13)
+    # two samples suffice at rest: the quintic between them is the rest-to-rest quintic
+    two = TableReference([0.0, 2.0], [[0.0], [1.0]], ends="rest")
+    move = QuinticReference([0.0], [1.0], duration=2.0)
+    tt = np.linspace(0.0, 2.0, 41)
+    for a, b in zip(two.evaluate(tt), move.evaluate(tt), strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-12)
+    # a record of it rebuilds it, ends included
+    again = reference_from_dict(ref.to_dict())
+    assert again == ref and again.to_dict()["ends"] == "rest"
+    assert ref != TableReference(np.linspace(0, 5, 6), np.zeros((6, 6)), spline=spline)  # type: ignore[arg-type]
+
+
+def test_table_ends_are_checked() -> None:
+    with pytest.raises(ValueError, match="ends must be 'not-a-knot' or 'rest', got 'clamped'"):
+        TableReference(range(6), np.arange(6.0), ends="clamped")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="ends must be 'not-a-knot' or 'rest', got 1"):
+        TableReference(range(6), np.arange(6.0), ends=1)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"quintic spline \(degree 5\) at rest needs at least 2"):
+        TableReference([0.0], [[1.0]], ends="rest")
+
+
 # --------------------------------------------------------------------------------------------
 # CSV
 

@@ -226,7 +226,7 @@ def list_() -> None:
     """List controllers, laws, references, sensors, disturbances, shipped scenarios and robots."""
     from slidingarm import robots
     from slidingarm.config import CONTROLLERS, choices
-    from slidingarm.study import SCENARIOS, load_shipped
+    from slidingarm.study import SHIPPED, load_shipped
 
     typer.echo("controllers:")
     for name, text in CONTROLLERS.items():
@@ -234,7 +234,7 @@ def list_() -> None:
     for section, values in choices().items():
         typer.echo(f"{section}: {', '.join(values)}")
     typer.echo("scenarios (shipped; run with `slidingarm run NAME --out DIR`):")
-    for name in SCENARIOS:
+    for name in SHIPPED:
         typer.echo(f"  {name:<8} {load_shipped(name).description}")
     typer.echo("robots (shipped URDFs; load with `slidingarm.robots.load(NAME)`):")
     for name in robots.names():

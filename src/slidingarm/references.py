@@ -52,6 +52,7 @@ __all__ = [
     "QuinticReference",
     "Reference",
     "SineReference",
+    "SplineEnds",
     "SplineKind",
     "TableReference",
     "reference_from_dict",
@@ -60,6 +61,9 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 Trajectory = tuple[FloatArray, FloatArray, FloatArray]
 SplineKind = Literal["quintic", "cubic"]
+#: End conditions of a table's spline: scipy's ``"not-a-knot"``, or ``"rest"`` (zero velocity
+#: and, for the quintic, zero acceleration at both ends).
+SplineEnds = Literal["not-a-knot", "rest"]
 
 #: The paper's initial joint positions :math:`q(0)` (rad), SPEC §2.
 PAPER_Q0: tuple[float, float, float] = (0.7, 1.5, 0.5)
@@ -75,6 +79,7 @@ PAPER_DT: float = 5e-4
 REFERENCE_KINDS: tuple[str, ...] = ("paper", "quintic", "sine", "table", "callable")
 
 _SPLINE_ORDER: dict[str, int] = {"quintic": 5, "cubic": 3}
+_SPLINE_ENDS: tuple[str, ...] = ("not-a-knot", "rest")
 
 #: Times at most this far (relative to the table's time scale) outside a table's range are
 #: treated as its end points, so a grid built as ``k * dt`` that overshoots the last sample by
@@ -479,11 +484,18 @@ class TableReference(Reference):
     """A sampled trajectory interpolated by a spline, with the spline's exact derivatives.
 
     The samples :math:`(t_j, q_j)`, :math:`j = 0 \\dots T_s - 1`, are interpolated per joint by
-    an interpolating B-spline of degree :math:`k` (``scipy.interpolate.make_interp_spline``
-    with its default "not-a-knot" end conditions): :math:`k = 5` for ``"quintic"``
-    (:math:`C^4`, reproduces any polynomial of degree :math:`\\le 5` exactly), :math:`k = 3`
-    for ``"cubic"`` (:math:`C^2`, reproduces degree :math:`\\le 3`). :math:`\\dot q_d` and
-    :math:`\\ddot q_d` are the first and second derivatives of that piecewise polynomial.
+    an interpolating B-spline of degree :math:`k` (``scipy.interpolate.make_interp_spline``):
+    :math:`k = 5` for ``"quintic"`` (:math:`C^4`), :math:`k = 3` for ``"cubic"``
+    (:math:`C^2`). :math:`\\dot q_d` and :math:`\\ddot q_d` are the first and second derivatives
+    of that piecewise polynomial.
+
+    The ``ends`` close the system: ``"not-a-knot"`` (scipy's default; the spline reproduces
+    any polynomial of degree :math:`\\le k` exactly) or ``"rest"``, which starts and ends the
+    trajectory at rest: :math:`\\dot q_d = 0` at both ends, and for the quintic also
+    :math:`\\ddot q_d = 0` (the :math:`(k - 1)/2` derivative conditions per end that close an odd
+    degree's system). With ``"rest"`` a few waypoints suffice (two or more), and the trajectory
+    through them is as smooth as the spline's degree; like any interpolating spline it may
+    overshoot a waypoint between samples.
 
     Outside :math:`[t_0, t_{T_s-1}]` the reference is not defined and :meth:`evaluate` raises
     ``ValueError`` naming the range (extrapolating a spline is unreliable, and holding the end
@@ -497,16 +509,29 @@ class TableReference(Reference):
     q : array_like, shape (T_s, n) or (T_s,)
         Joint positions (rad) at the sample times; one-dimensional means one joint.
     spline : {"quintic", "cubic"}, default "quintic"
-        Spline degree 5 (needs :math:`T_s \\ge 6`) or 3 (needs :math:`T_s \\ge 4`).
+        Spline degree 5 (needs :math:`T_s \\ge 6` with ``ends="not-a-knot"``) or 3 (needs
+        :math:`T_s \\ge 4`).
+    ends : {"not-a-knot", "rest"}, default "not-a-knot"
+        End conditions (see above); ``"rest"`` needs :math:`T_s \\ge 2`.
     """
 
-    __slots__ = ("_q", "_spline", "_splines", "_t")
+    __slots__ = ("_ends", "_q", "_spline", "_splines", "_t")
 
-    def __init__(self, t: ArrayLike, q: ArrayLike, *, spline: SplineKind = "quintic") -> None:
+    def __init__(
+        self,
+        t: ArrayLike,
+        q: ArrayLike,
+        *,
+        spline: SplineKind = "quintic",
+        ends: SplineEnds = "not-a-knot",
+    ) -> None:
         if not isinstance(spline, str):
             raise ParameterTypeError(f"spline must be 'quintic' or 'cubic', got {spline!r}")
         if spline not in _SPLINE_ORDER:
             raise ValueError(f"spline must be 'quintic' or 'cubic', got {spline!r}")
+        if not isinstance(ends, str) or ends not in _SPLINE_ENDS:
+            why = f"ends must be 'not-a-knot' or 'rest', got {ends!r}"
+            raise ParameterTypeError(why) if not isinstance(ends, str) else ValueError(why)
         k = _SPLINE_ORDER[spline]
         times = _as_table_times(t)
         qa = number_array("q", q, message="q must be an array of numbers, shape (T_s, n)")
@@ -523,25 +548,37 @@ class TableReference(Reference):
             raise ValueError(
                 f"q must be finite, got q[{j}, {i}] = {float(qa[j, i])!r} at t = {float(times[j])!r}"
             )
-        if times.shape[0] < k + 1:
+        fewest = 2 if ends == "rest" else k + 1
+        if times.shape[0] < fewest:
             raise ValueError(
-                f"a {spline} spline (degree {k}) needs at least {k + 1} samples, "
-                f"got {times.shape[0]}"
+                f"a {spline} spline (degree {k}){'' if ends == 'not-a-knot' else ' at rest'} "
+                f"needs at least {fewest} samples, got {times.shape[0]}"
             )
         qa = np.ascontiguousarray(qa)
         qa.flags.writeable = False
         self._t = times
         self._q = qa
         self._spline: SplineKind = spline
+        self._ends: SplineEnds = ends
         # imported here: scipy.interpolate alone would double the time of `import slidingarm`
         from scipy.interpolate import make_interp_spline
 
-        pos = make_interp_spline(times, qa, k=k, axis=0)
+        bc: Any = None
+        if ends == "rest":
+            zero = np.zeros(qa.shape[1])
+            end = [(order, zero) for order in range(1, (k - 1) // 2 + 1)]
+            bc = (end, end)
+        pos = make_interp_spline(times, qa, k=k, axis=0, bc_type=bc)
         self._splines = (pos, pos.derivative(1), pos.derivative(2))
 
     @classmethod
     def from_csv(
-        cls, path: str | Path, *, spline: SplineKind = "quintic", delimiter: str = ","
+        cls,
+        path: str | Path,
+        *,
+        spline: SplineKind = "quintic",
+        ends: SplineEnds = "not-a-knot",
+        delimiter: str = ",",
     ) -> TableReference:
         """Read a table from a CSV file with columns ``t, q1, ..., qn``.
 
@@ -554,6 +591,8 @@ class TableReference(Reference):
         path : str or Path
             The CSV file.
         spline : {"quintic", "cubic"}, default "quintic"
+            As for :class:`TableReference`.
+        ends : {"not-a-knot", "rest"}, default "not-a-knot"
             As for :class:`TableReference`.
         delimiter : str, default ","
             Field separator.
@@ -614,7 +653,7 @@ class TableReference(Reference):
             raise ValueError(f"{p}: no data rows (expected columns t, q1, ..., qn)")
         arr = np.array(data, dtype=np.float64)
         try:
-            return cls(arr[:, 0], arr[:, 1:], spline=spline)
+            return cls(arr[:, 0], arr[:, 1:], spline=spline, ends=ends)
         except ValueError as exc:
             raise ValueError(f"{p}: {exc}") from None
 
@@ -636,6 +675,11 @@ class TableReference(Reference):
     def spline(self) -> SplineKind:
         """``"quintic"`` or ``"cubic"``."""
         return self._spline
+
+    @property
+    def ends(self) -> SplineEnds:
+        """``"not-a-knot"`` or ``"rest"``."""
+        return self._ends
 
     @property
     def t_range(self) -> tuple[float, float]:
@@ -664,6 +708,7 @@ class TableReference(Reference):
         return {
             "kind": "table",
             "spline": self._spline,
+            "ends": self._ends,
             "t": _vec_list(self._t),
             "q": [_vec_list(row) for row in self._q],
         }
@@ -672,7 +717,7 @@ class TableReference(Reference):
         t0, t1 = self.t_range
         return (
             f"TableReference(<{self._t.shape[0]} samples, n={self.n}, t in [{t0!r}, {t1!r}]>, "
-            f"spline={self._spline!r})"
+            f"spline={self._spline!r}, ends={self._ends!r})"
         )
 
 
@@ -848,7 +893,7 @@ _KEYS: dict[str, tuple[frozenset[str], frozenset[str]]] = {
     "paper": (frozenset(), frozenset()),
     "quintic": (frozenset({"q_start", "q_end", "duration"}), frozenset({"t_start"})),
     "sine": (frozenset({"offset", "amplitude", "frequency"}), frozenset({"phase"})),
-    "table": (frozenset(), frozenset({"t", "q", "path", "spline"})),
+    "table": (frozenset(), frozenset({"t", "q", "path", "spline", "ends"})),
 }
 
 
@@ -860,7 +905,7 @@ def reference_from_dict(d: Mapping[str, Any], *, base_dir: str | Path | None = N
     d : mapping
         ``{"kind": ..., <parameters>}`` with ``kind`` one of ``"paper"``, ``"quintic"``,
         ``"sine"``, ``"table"``. A table gives either ``t`` and ``q`` inline or ``path`` to a
-        CSV file (:meth:`TableReference.from_csv`), and optionally ``spline``.
+        CSV file (:meth:`TableReference.from_csv`), and optionally ``spline`` and ``ends``.
     base_dir : str or Path, optional
         Directory a relative table ``path`` is resolved against (for example the configuration
         file's directory); default the current directory.
@@ -912,16 +957,17 @@ def reference_from_dict(d: Mapping[str, Any], *, base_dir: str | Path | None = N
         return SineReference(d["offset"], d["amplitude"], d["frequency"], d.get("phase", 0.0))
     # table
     spline = d.get("spline", "quintic")
+    ends = d.get("ends", "not-a-knot")
     if "path" in d:
         if "t" in keys or "q" in keys:
             raise ValueError("a table reference takes either 'path' or 't' and 'q', not both")
         path = Path(d["path"])
         if base_dir is not None and not path.is_absolute():
             path = Path(base_dir) / path
-        return TableReference.from_csv(path, spline=spline)
+        return TableReference.from_csv(path, spline=spline, ends=ends)
     if "t" not in keys or "q" not in keys:
         raise ValueError(
             "a table reference needs 't' and 'q' (or 'path' to a CSV file); "
             f"got keys {sorted(keys)}"
         )
-    return TableReference(d["t"], d["q"], spline=spline)
+    return TableReference(d["t"], d["q"], spline=spline, ends=ends)

@@ -12,23 +12,31 @@ Layout of a file (every table is optional except ``plant``, ``reference``, ``sim
 
     extends = "paper.toml"      # optional base file (relative path), merged under this one:
                                 # tables merge key by key, except a table that names its kind
-                                # (kind; for [plant] preset or masses), which replaces the base's;
-                                # values and arrays replace
+                                # (kind; for [plant] preset, masses, robot or urdf), which
+                                # replaces the base's; values and arrays replace
     name = "sign"               # default: the file's stem
     description = "..."
     switching = "sign"          # shared switching function: sign | tanh | sat
 
-    [plant]                     # the controller's nominal arm
+    [plant]                     # the controller's nominal arm: a planar arm ...
     preset = "paper"            # or masses, lengths (and com, inertia)
     mass_model = "point"        # point | rod
+    # ... or a serial arm (these exclude the planar keys above):
+    # robot = "ur5"             # a shipped robot (slidingarm.robots.names()), or
+    # urdf = "arm.urdf"         # a URDF file, relative to the file that names it
+    # tool = "tool0"            # the tool link (default: the robot's flange, the URDF's tip)
+    gravity = 9.81              # m/s², along -y (planar) or -z of the root link (serial)
 
     [mismatch]                  # the simulated plant = nominal arm with these errors
     payload = 0.0               # kg at the tool
     mass_error = 0.0            # relative, scalar or per joint
     length_error = 0.0
+    # payload_link = "link"     # serial arms: the payload at this link's origin instead
 
-    [reference]                 # slidingarm.references.reference_from_dict
-    kind = "paper"              # paper | quintic | sine | table (path relative to the file)
+    [reference]                 # slidingarm.references.reference_from_dict; one value per joint
+    kind = "paper"              # paper | quintic | sine | table (path relative to the file;
+                                # ends = "rest" starts and ends a spline at rest); on a serial
+                                # arm the reference and q0 must keep within the URDF's limits
 
     [simulation]
     t_final = 4.5               # s

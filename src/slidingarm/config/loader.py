@@ -65,9 +65,9 @@ def _merge(
 
 
 def _names_kind(table: Mapping[str, Any]) -> bool:
-    """Whether a table says what it is (``kind``; a plant's ``preset`` or ``masses``): such a
-    table replaces the base's instead of merging into it."""
-    return any(k in table for k in ("kind", "preset", "masses"))
+    """Whether a table says what it is (``kind``; a plant's ``preset``, ``masses``, ``robot``
+    or ``urdf``): such a table replaces the base's instead of merging into it."""
+    return any(k in table for k in ("kind", "preset", "masses", "robot", "urdf"))
 
 
 def _resolve(
@@ -145,6 +145,7 @@ def _validate(
     except ValidationError as exc:
         raise from_pydantic(exc, Scenario, source, origin) from None
     scenario._source = source
+    scenario._origin = dict(origin)
     if base_dir is not None:
         scenario._base_dir = Path(base_dir)
     elif source is not None:

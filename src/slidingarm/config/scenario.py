@@ -9,21 +9,27 @@ from functools import partial
 from pathlib import Path
 from typing import Any, get_args
 
+import numpy as np
 from pydantic import Field, PrivateAttr
 
+from slidingarm import robots
 from slidingarm.config.errors import ConfigError, literal_values, tags
 from slidingarm.config.specs import (
     _CONTROLLER_CLASSES,
     _SURFACE_GAINS,
+    PLANAR_KEYS,
     ControllerSpec,
     DisturbanceSpec,
     FaultSpec,
     GainsSpec,
     MismatchSpec,
     PlantSpec,
+    QuinticReferenceSpec,
     ReferenceSpec,
     SensorSpec,
     SimulationSpec,
+    SineReferenceSpec,
+    TableReferenceSpec,
     VelocitySpec,
     _build_disturbance,
     _ControllerHead,
@@ -34,9 +40,13 @@ from slidingarm.config.values import _NAME_PATTERN, Switching, _Strict
 from slidingarm.control.controllers import SlidingModeController
 from slidingarm.disturbances import Disturbance
 from slidingarm.models.planar import PlanarArm
+from slidingarm.models.serial import SerialArm
 from slidingarm.references import Reference, reference_from_dict
 from slidingarm.sensors import Sensor
 from slidingarm.simulate import time_grid
+
+#: The arms a scenario builds.
+Arm = PlanarArm | SerialArm
 
 __all__ = ["Scenario", "Setup", "choices"]
 
@@ -53,8 +63,8 @@ class Setup:
 
     name: str
     description: str
-    nominal: PlanarArm
-    plant: PlanarArm
+    nominal: Arm
+    plant: Arm
     reference: Reference
     controllers: dict[str, SlidingModeController]
     q0: tuple[float, ...]
@@ -107,6 +117,7 @@ class Scenario(_Strict):
 
     _source: Path | None = PrivateAttr(default=None)
     _base_dir: Path | None = PrivateAttr(default=None)
+    _origin: dict[tuple[Any, ...], str] = PrivateAttr(default_factory=dict)
 
     @property
     def source(self) -> Path | None:
@@ -279,16 +290,17 @@ class Scenario(_Strict):
                     f"duplicate controller {label!r}; "
                     "give each controller of the same type a distinct label",
                 )
-        nominal = self._guard("plant", self.plant.build)
+        nominal = self._build_plant()
         n = nominal.n
         self._check_lengths(n)
-        plant = self._guard("mismatch", lambda: self.mismatch.build().apply(nominal))
+        plant = self._build_mismatch(nominal)
         base = self._base_dir
         ref_path = getattr(self.reference, "path", None)
         if ref_path is not None:
             full = Path(ref_path) if base is None else Path(base) / ref_path
             if not full.is_file():
                 raise self._fail("reference.path", f"table file not found: {full}")
+        self._check_reference_lengths(n)
         reference = self._guard(
             "reference",
             lambda: reference_from_dict(
@@ -296,9 +308,12 @@ class Scenario(_Strict):
             ),
         )
         if reference.n != n:
-            raise self._fail("reference", f"describes {reference.n} joints but the arm has {n}")
+            key = "reference.path" if ref_path is not None else "reference"
+            raise self._fail(key, f"describes {reference.n} joints but the arm has {n}")
         sim = self.simulation
-        self._guard("simulation.t_final", lambda: time_grid(sim.t_final, sim.dt))
+        t = self._guard("simulation.t_final", lambda: time_grid(sim.t_final, sim.dt))
+        if isinstance(nominal, SerialArm):
+            self._check_limits(nominal, reference, t)
         sensor = self._guard("sensor", self.sensor.build)
         disturbances = tuple(
             self._guard(f"disturbances[{i}]", partial(_build_disturbance, d))
@@ -329,6 +344,152 @@ class Scenario(_Strict):
             seed=sim.seed,
         )
 
+    # ---------------------------------------------------------------- arm-dependent checks
+    def _set_in(self, *key: str) -> Path | None:
+        """The folder of the file that set ``key`` (``extends``), else of this scenario."""
+        for n in range(len(key), 0, -1):
+            if key[:n] in self._origin:
+                return Path(self._origin[key[:n]]).parent
+        return self._base_dir
+
+    def _build_plant(self) -> Arm:
+        """The nominal arm, with ``plant.robot``, ``plant.urdf`` or ``plant.tool`` named when a
+        serial arm cannot be built."""
+        try:
+            return self._guard("plant", lambda: self.plant.build(self._set_in("plant", "urdf")))
+        except ConfigError as exc:
+            if exc.file is not None:
+                raise
+            raise self._fail(exc.path or "plant", exc.reason) from None
+
+    def _build_mismatch(self, nominal: Arm) -> Arm:
+        """The simulated plant: the nominal arm with ``[mismatch]``."""
+        m = self.mismatch
+        if m.payload_link is None:
+            return self._guard("mismatch", lambda: m.build().apply(nominal))
+        if not isinstance(nominal, SerialArm):
+            raise self._fail(
+                "mismatch.payload_link",
+                "names a link of a robot or URDF arm; a planar arm's payload sits at its tip "
+                "(remove payload_link)",
+            )
+        if m.payload == 0.0:
+            raise self._fail(
+                "mismatch.payload_link",
+                "says where the payload sits, but mismatch.payload is 0 kg; set the payload's "
+                "mass or remove payload_link",
+            )
+        return self._guard("mismatch.payload_link", lambda: m.build().apply(nominal))
+
+    def _check_reference_lengths(self, n: int) -> None:
+        """Each per-joint vector of the reference has the arm's ``n`` values."""
+        ref = self.reference
+        vectors: list[tuple[str, Any, bool]] = []  # (key, value, scalar allowed)
+        if isinstance(ref, QuinticReferenceSpec):
+            vectors = [("q_start", ref.q_start, False), ("q_end", ref.q_end, False)]
+        elif isinstance(ref, SineReferenceSpec):
+            vectors = [("offset", ref.offset, False)]
+            vectors += [(k, getattr(ref, k), True) for k in ("amplitude", "frequency", "phase")]
+        elif isinstance(ref, TableReferenceSpec) and ref.q is not None:
+            vectors = [(f"q[{i}]", row, False) for i, row in enumerate(ref.q)]
+        elif ref.kind == "paper" and n != 3:
+            raise self._fail(
+                "reference.kind",
+                f"the paper's reference describes 3 joints but the arm has {n}; give a "
+                "quintic, sine or table reference with one value per joint",
+            )
+        for key, value, scalar in vectors:
+            if isinstance(value, list) and len(value) != n:
+                allowed = f"a scalar or {n} values" if scalar else f"{n} values"
+                raise self._fail(
+                    f"reference.{key}",
+                    f"has {len(value)} values but the arm has {n} joints (give {allowed})",
+                )
+
+    def _check_limits(self, arm: SerialArm, reference: Reference, t: Any) -> None:
+        """``q0``, the reference's own points (end points, waypoints, offset) and the reference
+        at every sample of the run stay within the arm's finite URDF position limits; the error
+        names the key, the joint and the limit."""
+        lower, upper = arm.limits["lower"], arm.limits["upper"]
+        if not (np.any(np.isfinite(lower)) or np.any(np.isfinite(upper))):
+            return
+        # rounding of a trajectory that touches a limit is not leaving it
+        scale = np.maximum(np.abs(np.where(np.isfinite(lower), lower, 0.0)), 1.0)
+        scale = np.maximum(scale, np.abs(np.where(np.isfinite(upper), upper, 0.0)))
+        tol = 1e-9 * scale
+
+        def joint(j: int) -> str:
+            return f"joint {j + 1} ({arm.joint_names[j]})"
+
+        def unit(j: int) -> str:
+            return "m" if arm.joint_types[j] == "prismatic" else "rad"
+
+        def outside(q: np.ndarray) -> tuple[int, int, str, float] | None:
+            """The first sample and joint of ``q`` (T, n) outside the limits."""
+            below = q < lower - tol
+            above = q > upper + tol
+            bad = below | above
+            if not np.any(bad):
+                return None
+            k, j = (int(i) for i in np.argwhere(bad)[0])
+            side = "lower" if below[k, j] else "upper"
+            return k, j, side, float(lower[j] if side == "lower" else upper[j])
+
+        q0 = np.asarray(self.simulation.q0, dtype=float)[None, :]
+        hit = outside(q0)
+        if hit is not None:
+            _, j, side, limit = hit
+            raise self._fail(
+                "simulation.q0",
+                f"{joint(j)} starts at {q0[0, j]:.6g} {unit(j)}, "
+                f"{'below' if side == 'lower' else 'above'} its URDF {side} limit "
+                f"{limit:.6g} {unit(j)}",
+            )
+        # the reference's own points (end points, waypoints, a sine's offset), wherever they
+        # fall in time, then every sample of the run (a spline's overshoot, a sine's amplitude)
+        for key, value in self._reference_points():
+            point = np.asarray(value, dtype=float)[None, :]
+            hit = outside(point)
+            if hit is not None:
+                _, j, side, limit = hit
+                raise self._fail(
+                    f"reference.{key}",
+                    f"{joint(j)} is at {point[0, j]:.6g} {unit(j)} there, "
+                    f"{'below' if side == 'lower' else 'above'} its URDF {side} limit "
+                    f"{limit:.6g} {unit(j)} (the reference must stay within the joint limits)",
+                )
+        q_ref = reference.evaluate(t)[0]
+        hit = outside(q_ref)
+        if hit is None:
+            return
+        k, j, side, limit = hit
+        raise self._fail(
+            self._reference_key(),
+            f"{joint(j)} reaches {q_ref[k, j]:.6g} {unit(j)} at t = {float(t[k]):.6g} s, "
+            f"{'below' if side == 'lower' else 'above'} its URDF {side} limit {limit:.6g} "
+            f"{unit(j)} (the reference must stay within the joint limits)",
+        )
+
+    def _reference_points(self) -> list[tuple[str, Any]]:
+        """The reference's own points (key, joint vector): end points, waypoints, offset."""
+        ref = self.reference
+        if isinstance(ref, QuinticReferenceSpec):
+            return [("q_start", ref.q_start), ("q_end", ref.q_end)]
+        if isinstance(ref, SineReferenceSpec):
+            return [("offset", ref.offset)]
+        if isinstance(ref, TableReferenceSpec) and ref.q is not None:
+            return [(f"q[{i}]", row) for i, row in enumerate(ref.q)]
+        return []
+
+    def _reference_key(self) -> str:
+        """The key that moves the reference between its points."""
+        ref = self.reference
+        if isinstance(ref, SineReferenceSpec):
+            return "reference.amplitude"
+        if isinstance(ref, TableReferenceSpec):
+            return "reference.q" if ref.q is not None else "reference.path"
+        return "reference"
+
     def _guard(self, path: str, make: Callable[[], Any]) -> Any:
         try:
             return make()
@@ -346,6 +507,12 @@ class Scenario(_Strict):
         ref = d.get("reference", {})
         if ref.get("kind") == "table" and "path" in ref and self._base_dir is not None:
             ref["path"] = str((self._base_dir / ref["path"]).resolve())
+        if self.plant.serial:
+            # the planar keys' defaults (mass_model) do not apply to a serial arm
+            d["plant"] = {k: v for k, v in d["plant"].items() if k not in PLANAR_KEYS}
+        urdf = self.plant.urdf_path(self._set_in("plant", "urdf"))
+        if urdf is not None:
+            d["plant"]["urdf"] = str(urdf.resolve())
         return d
 
     def to_toml(self) -> str:
@@ -372,6 +539,7 @@ def choices() -> dict[str, list[str]]:
         "disturbances (disturbances[].kind)": tags(DisturbanceSpec),
         "model mismatch ([mismatch])": list(MismatchSpec.model_fields),
         "plant presets (plant.preset)": literal_values(PlantSpec.model_fields["preset"].annotation),
+        "robots (plant.robot)": list(robots.names()),
         "mass models (plant.mass_model)": literal_values(
             PlantSpec.model_fields["mass_model"].annotation
         ),

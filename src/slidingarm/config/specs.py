@@ -5,6 +5,7 @@ disturbances, gains and controllers. Each spec that is a library object builds i
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
@@ -15,6 +16,8 @@ from pydantic import (
     model_validator,
 )
 
+from slidingarm import robots
+from slidingarm.config.errors import ConfigError
 from slidingarm.config.values import (
     _NAME_PATTERN,
     FiniteFloat,
@@ -45,6 +48,7 @@ from slidingarm.disturbances import (
     SinusoidalTorque,
 )
 from slidingarm.models.planar import PlanarArm
+from slidingarm.models.serial import SerialArm
 from slidingarm.sensors import (
     BackwardDifference,
     DirtyDerivative,
@@ -77,8 +81,16 @@ _SURFACE_GAINS: dict[str, tuple[str, ...]] = {
 # plant, mismatch, reference, simulation
 
 
+#: The keys of ``[plant]`` that describe a planar arm, and those that name a serial arm's
+#: description; the two sets exclude each other (``tool`` and ``gravity`` go with either source
+#: of a serial arm, ``gravity`` with a planar arm too).
+PLANAR_KEYS: tuple[str, ...] = ("preset", "mass_model", "masses", "lengths", "com", "inertia")
+SERIAL_KEYS: tuple[str, ...] = ("robot", "urdf")
+
+
 class PlantSpec(_Strict):
-    """The controller's nominal arm: the paper's preset or explicit link parameters (SI units)."""
+    """The controller's nominal arm (SI units): a planar arm (the paper's preset or explicit
+    link parameters) or a serial arm (a shipped robot or a URDF file)."""
 
     preset: Literal["paper"] | None = Field(
         default=None, description="'paper': m = (1, 1, 1) kg, l = (0.5, 1, 1) m (SPEC §2)."
@@ -95,10 +107,55 @@ class PlantSpec(_Strict):
     inertia: NonNegativeVector | None = Field(
         default=None, description="Centroidal inertias (kg m²); default from mass_model."
     )
-    gravity: NonNegativeFloat = Field(default=9.81, description="g (m/s²), acting along -y.")
+    robot: str | None = Field(
+        default=None,
+        description="A shipped robot (slidingarm.robots.names()), a serial arm; excludes the "
+        "planar keys.",
+    )
+    urdf: str | None = Field(
+        default=None,
+        description="A URDF file of a serial arm, relative to the folder of the scenario file "
+        "that sets it (or absolute); excludes the planar keys.",
+    )
+    tool: str | None = Field(
+        default=None,
+        description="Tool link of a robot or URDF (default: a robot's flange or TCP, a URDF's "
+        "deepest link).",
+    )
+    gravity: NonNegativeFloat = Field(
+        default=9.81,
+        description="g (m/s²): along -y for a planar arm, along -z of the root link for a robot "
+        "or URDF.",
+    )
+
+    @field_validator("robot")
+    @classmethod
+    def _shipped(cls, v: str | None) -> str | None:
+        if v is not None and v not in robots.names():
+            raise ValueError(
+                f"must be a shipped robot, one of {', '.join(robots.names())}; got {v!r}"
+            )
+        return v
 
     @model_validator(mode="after")
     def _one_source(self) -> PlantSpec:
+        serial = [k for k in SERIAL_KEYS if getattr(self, k) is not None]
+        if len(serial) > 1:
+            raise ValueError("give either robot (a shipped robot) or urdf (a URDF file), not both")
+        if serial:
+            planar = [k for k in PLANAR_KEYS if k in self.model_fields_set]
+            if planar:
+                raise ValueError(
+                    f"{serial[0]} describes a serial arm, so the planar keys "
+                    f"{', '.join(planar)} do not apply; remove them (got {serial[0]} and "
+                    f"{', '.join(planar)})"
+                )
+            return self
+        if self.tool is not None:
+            raise ValueError(
+                "tool names a link of a robot or URDF; a planar arm's tool is its tip "
+                "(give robot or urdf, or remove tool)"
+            )
         explicit = [
             k for k in ("masses", "lengths", "com", "inertia") if getattr(self, k) is not None
         ]
@@ -108,11 +165,46 @@ class PlantSpec(_Strict):
                 f"(got preset and {', '.join(explicit)})"
             )
         if self.preset is None and (self.masses is None or self.lengths is None):
-            raise ValueError("needs preset = 'paper' or both masses and lengths")
+            raise ValueError(
+                "needs preset = 'paper' or both masses and lengths (a planar arm), or robot "
+                f"(one of {', '.join(robots.names())}) or urdf (a serial arm)"
+            )
         return self
 
-    def build(self) -> PlanarArm:
-        """The nominal arm."""
+    @property
+    def serial(self) -> bool:
+        """Whether this is a serial arm (``robot`` or ``urdf``)."""
+        return self.robot is not None or self.urdf is not None
+
+    def urdf_path(self, base_dir: str | Path | None = None) -> Path | None:
+        """The URDF file, a relative ``urdf`` anchored at ``base_dir`` (default: the current
+        directory); ``None`` without ``urdf``."""
+        if self.urdf is None:
+            return None
+        path = Path(self.urdf).expanduser()
+        if base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        return path
+
+    def build(self, base_dir: str | Path | None = None) -> PlanarArm | SerialArm:
+        """The nominal arm.
+
+        Parameters
+        ----------
+        base_dir : path, optional
+            The folder a relative ``urdf`` is read from.
+
+        Raises
+        ------
+        ConfigError
+            Naming ``plant.robot``, ``plant.urdf`` or ``plant.tool`` when a serial arm cannot
+            be built (its file is missing, unreadable or refused by
+            :meth:`~slidingarm.SerialArm.from_urdf`, or its tool is not one of its links).
+        ValueError
+            When the planar arm's parameters are refused.
+        """
+        if self.serial:
+            return self._build_serial(base_dir)
         if self.preset == "paper":
             return PlanarArm.paper(self.mass_model, gravity=self.gravity)
         return PlanarArm(
@@ -124,6 +216,24 @@ class PlantSpec(_Strict):
             gravity=self.gravity,
         )
 
+    def _build_serial(self, base_dir: str | Path | None) -> SerialArm:
+        key = "plant.robot" if self.robot is not None else "plant.urdf"
+        try:
+            if self.robot is not None:
+                arm = robots.load(self.robot, gravity=self.gravity)
+            else:
+                path = self.urdf_path(base_dir)
+                assert path is not None
+                arm = SerialArm.from_urdf(path, gravity=self.gravity)
+        except (ValueError, OSError) as exc:
+            raise ConfigError(str(exc), path=key) from None
+        if self.tool is None:
+            return arm
+        try:
+            return arm.replace(tool=self.tool)
+        except ValueError as exc:
+            raise ConfigError(str(exc), path="plant.tool") from None
+
 
 class MismatchSpec(_Strict):
     """How the simulated plant differs from the nominal arm the controllers use."""
@@ -131,12 +241,18 @@ class MismatchSpec(_Strict):
     payload: NonNegativeFloat = Field(default=0.0, description="Point mass at the tool (kg).")
     mass_error: RelativeError = Field(default=0.0, description="Relative mass error, > -1.")
     length_error: RelativeError = Field(default=0.0, description="Relative length error, > -1.")
+    payload_link: str | None = Field(
+        default=None,
+        description="The link whose origin carries the payload (a robot or URDF only; default: "
+        "the tool).",
+    )
 
     def build(self) -> ModelMismatch:
         return ModelMismatch(
             payload=self.payload,
             mass_error=_tuple(self.mass_error),
             length_error=_tuple(self.length_error),
+            payload_link=self.payload_link,
         )
 
 
@@ -174,6 +290,11 @@ class TableReferenceSpec(_Strict):
     q: list[Vector] | None = None
     path: str | None = None
     spline: Literal["quintic", "cubic"] = "quintic"
+    ends: Literal["not-a-knot", "rest"] | None = Field(
+        default=None,
+        description="not-a-knot (default) or rest: zero velocity (and, for the quintic, "
+        "acceleration) at both ends.",
+    )
 
     @model_validator(mode="after")
     def _one_source(self) -> TableReferenceSpec:

@@ -1,8 +1,9 @@
 """Figures of slidingarm runs (SPEC §7): pure drawing, no computation, no pyplot, no ``show()``.
 
 Every ``plot_*`` function takes ``{controller name: SimResult}``, accepts an optional ``ax=`` and
-returns the :class:`~matplotlib.figure.Figure`; :func:`scenario_figures` makes the seven figures
-of one scenario of the study and :func:`save_figure` writes one as PNG and SVG.
+returns the :class:`~matplotlib.figure.Figure`; :func:`plot_tool_path` draws tool paths given
+as (T, 3) arrays; :func:`scenario_figures` makes the seven figures of one scenario of the study
+(and the tool path of a serial arm's) and :func:`save_figure` writes one as PNG and SVG.
 """
 
 from slidingarm.plotting._save import PNG_DPI, save_figure
@@ -10,9 +11,11 @@ from slidingarm.plotting._style import REFERENCE_STYLE, LineStyle, controller_st
 from slidingarm.plotting.figures import (
     FIGURES,
     MAX_POINTS,
+    TOOL_FIGURES,
     plot_error,
     plot_sliding,
     plot_steady_state,
+    plot_tool_path,
     plot_torque,
     plot_tracking,
     plot_velocity,
@@ -24,11 +27,13 @@ __all__ = [
     "MAX_POINTS",
     "PNG_DPI",
     "REFERENCE_STYLE",
+    "TOOL_FIGURES",
     "LineStyle",
     "controller_style",
     "plot_error",
     "plot_sliding",
     "plot_steady_state",
+    "plot_tool_path",
     "plot_torque",
     "plot_tracking",
     "plot_velocity",

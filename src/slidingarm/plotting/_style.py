@@ -27,6 +27,7 @@ __all__ = [
     "LineStyle",
     "PowerOfTenFormatter",
     "band_limits",
+    "bottom_panels",
     "controller_style",
     "envelope",
     "frame",
@@ -125,16 +126,28 @@ _LEFT, _RIGHT, _BOTTOM, _GAP = 0.95, 0.18, 0.55, 0.14
 _TITLE_H, _LEGEND_H = 0.34, 0.30
 
 
+#: Up to this many panels are stacked in one column; more (a 6- or 7-joint arm) go in a grid of
+#: :data:`GRID_COLUMNS` columns, so each panel keeps a readable height on a page.
+MAX_STACKED = 3
+GRID_COLUMNS = 2
+_GRID_WIDTH, _GRID_ROW_H = 10.0, 1.85
+
+
 def panels(
     ax: Axes | Sequence[Axes] | None, count: int, *, height: float | None = None
 ) -> tuple[Figure, list[Axes], bool]:
-    """Axes for ``count`` stacked panels sharing the time axis.
+    """Axes for ``count`` panels sharing the time axis.
 
     With ``ax=None`` a new :class:`~matplotlib.figure.Figure` (no pyplot, fixed margins that
-    leave room at the top for a title and a one-row legend, see :func:`frame`) is made;
-    otherwise ``ax`` must be one Axes (``count == 1``) or ``count`` Axes. Returns the figure,
-    the axes and whether the figure is ours.
+    leave room at the top for a title and a one-row legend, see :func:`frame`) is made: up to
+    :data:`MAX_STACKED` panels stacked in one column, more in a grid of :data:`GRID_COLUMNS`
+    columns filled row by row (panel ``i`` at row ``i // 2``, column ``i % 2``; an empty last
+    cell is removed and the panel above it shows the time axis). Otherwise ``ax`` must be one
+    Axes (``count == 1``) or ``count`` Axes. Returns the figure, the axes and whether the
+    figure is ours.
     """
+    if ax is None and count > MAX_STACKED:
+        return _grid(count, height)
     if ax is None:
         if height is None:
             height = 1.6 + 1.75 * count if count <= 3 else 1.6 + 1.4 * count
@@ -159,6 +172,47 @@ def panels(
     while not isinstance(root, Figure):  # a SubFigure: its root Figure is what is returned
         root = root.figure
     return root, axes, False
+
+
+def _grid(count: int, height: float | None) -> tuple[Figure, list[Axes], bool]:
+    """A new figure of ``count`` panels in :data:`GRID_COLUMNS` columns (see :func:`panels`)."""
+    cols = GRID_COLUMNS
+    rows = math.ceil(count / cols)
+    width = _GRID_WIDTH
+    if height is None:
+        height = _BOTTOM + _TITLE_H + _LEGEND_H + 0.25 + _GRID_ROW_H * rows
+    fig = Figure(figsize=(width, height))
+    inner_h = height - _BOTTOM - _TITLE_H - _LEGEND_H
+    panel_w = (width - _LEFT - _RIGHT - _LEFT * (cols - 1)) / cols
+    fig.subplots_adjust(
+        left=_LEFT / width,
+        right=1.0 - _RIGHT / width,
+        bottom=_BOTTOM / height,
+        top=1.0 - (_TITLE_H + _LEGEND_H) / height,
+        wspace=_LEFT / panel_w,
+        hspace=_GAP * rows / (inner_h - _GAP * (rows - 1)),
+    )
+    grid = fig.subplots(rows, cols, sharex=True, squeeze=False)
+    axes = [grid[i // cols, i % cols] for i in range(count)]
+    for i in range(count, rows * cols):
+        fig.delaxes(grid[i // cols, i % cols])
+        # the panel above the empty cell ends its column: it shows the time axis
+        grid[i // cols - 1, i % cols].xaxis.set_tick_params(labelbottom=True)
+    return fig, axes, True
+
+
+def bottom_panels(axes: Sequence[Axes]) -> list[Axes]:
+    """The lowest of ``axes`` in each column of their grid (where the time axis is labelled);
+    the last one for axes that are not on one grid."""
+    lowest: dict[int, tuple[int, Axes]] = {}
+    for a in axes:
+        spec = a.get_subplotspec()
+        if spec is None:
+            return [axes[-1]]
+        row, col = spec.rowspan.stop, spec.colspan.start
+        if col not in lowest or row > lowest[col][0]:
+            lowest[col] = (row, a)
+    return [a for _, a in lowest.values()]
 
 
 def frame(fig: Figure, axes: list[Axes], own: bool, title: str | None) -> None:

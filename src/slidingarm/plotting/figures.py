@@ -1,8 +1,10 @@
 """The study's figures (SPEC §7, paper Figs. 3–22): one function per signal, any number of joints.
 
-Every ``plot_*`` function takes the runs to compare as a mapping ``{controller name: SimResult}``
-(drawn in the mapping's order, each controller in its own fixed style), draws one panel per
-joint stacked over a shared time axis, and returns the :class:`~matplotlib.figure.Figure`. With
+Every joint ``plot_*`` function takes the runs to compare as a mapping ``{controller name:
+SimResult}`` (drawn in the mapping's order, each controller in its own fixed style), draws one
+panel per joint over a shared time axis (stacked, or in a grid of two columns beyond three
+joints), and returns the :class:`~matplotlib.figure.Figure`. :func:`plot_tool_path` draws tool
+paths given as arrays (the caller computes them from its arm's kinematics). With
 ``ax=None`` it makes a new figure without pyplot (so it needs no GUI backend and leaves no
 global state); otherwise it draws into ``ax`` — one Axes per joint drawn, or a single Axes with
 ``joints=[j]``. Nothing is shown or saved here: see :func:`slidingarm.plotting.save_figure`.
@@ -12,6 +14,7 @@ Joints are numbered from 1, as in the paper (``joints=[1]`` is the first joint).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Literal
 
@@ -20,7 +23,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullLocator
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from slidingarm.metrics import DEFAULT_WINDOW
 from slidingarm.plotting._style import (
@@ -29,6 +32,7 @@ from slidingarm.plotting._style import (
     LineStyle,
     PowerOfTenFormatter,
     band_limits,
+    bottom_panels,
     controller_style,
     envelope,
     frame,
@@ -41,9 +45,11 @@ from slidingarm.results import SimResult, sliding_unit
 
 __all__ = [
     "FIGURES",
+    "TOOL_FIGURES",
     "plot_error",
     "plot_sliding",
     "plot_steady_state",
+    "plot_tool_path",
     "plot_torque",
     "plot_tracking",
     "plot_velocity",
@@ -64,6 +70,13 @@ FIGURES: tuple[str, ...] = (
     "error",
     "steady_state",
 )
+
+#: The figures a serial arm's scenario adds to :data:`FIGURES` (given its tool paths).
+TOOL_FIGURES: tuple[str, ...] = ("tool_path",)
+
+#: The projections of :func:`plot_tool_path`: (horizontal, vertical) coordinate of the root frame.
+_PROJECTIONS: tuple[tuple[int, int], ...] = ((0, 1), (0, 2), (1, 2))
+_AXIS_NAMES = "xyz"
 
 #: Samples kept per line by default (min–max decimation, see ``envelope``): two per pixel
 #: column of a 7-inch figure at 150 dpi, so the drawing equals the full-resolution one.
@@ -238,7 +251,8 @@ def _joint_plot(
                 a.set_xlim(t_lo, t_hi)
             a.set_ylabel(ylabel(j))
             a.grid(True, which="major")
-        axes[-1].set_xlabel(_TIME_LABEL)
+        for a in bottom_panels(axes) if own else axes[-1:]:
+            a.set_xlabel(_TIME_LABEL)
         frame(fig, axes, own, title)
     return fig
 
@@ -434,11 +448,98 @@ def plot_steady_state(
     )
 
 
+def _path(name: str, value: ArrayLike) -> FloatArray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] < 1:
+        raise ValueError(f"{name} must be a path of shape (T, 3), got shape {arr.shape}")
+    return arr
+
+
+def _thin(path: FloatArray, max_points: int) -> FloatArray:
+    """Every ``k``-th point of a path (and its last), at most about ``max_points``."""
+    size = path.shape[0]
+    if size <= max_points or max_points < 2:
+        return path
+    idx = np.unique(np.append(np.arange(0, size, math.ceil(size / max_points)), size - 1))
+    return path[idx]
+
+
+def plot_tool_path(
+    paths: Mapping[str, ArrayLike],
+    reference: ArrayLike | None = None,
+    *,
+    ax: AxesArg = None,
+    title: str | None = "Tool path",
+    max_points: int = MAX_POINTS,
+) -> Figure:
+    """Tool-tip paths in the root frame, projected on its x-y, x-z and y-z planes.
+
+    Parameters
+    ----------
+    paths : Mapping[str, array_like, shape (T, 3)]
+        Each controller's tool position over its run (m), keyed by controller name and drawn
+        in this order, each in the controller's style; for example
+        ``{name: arm.tool_position(result.q)}``.
+    reference : array_like, shape (T, 3), optional
+        The desired tool path (m), e.g. ``arm.tool_position(result.q_ref)``: dashed black,
+        with its start marked by a circle.
+    ax : sequence of 3 Axes or None
+        Where to draw the x-y, x-z and y-z views; ``None`` makes a new figure.
+    title : str or None
+        Figure title (the first panel's title when drawing into ``ax``).
+    max_points : int
+        Points kept per path (every k-th sample and the last).
+
+    Each view keeps equal scales on its two axes, so the paths keep their shape.
+    """
+    drawn = {name: _path(f"paths[{name!r}]", p) for name, p in paths.items()}
+    if not drawn:
+        raise ValueError("paths is empty: pass at least one {controller name: (T, 3) path}")
+    ref = None if reference is None else _path("reference", reference)
+    with matplotlib.rc_context(RC):
+        if ax is None:
+            width, height = 10.0, 4.3
+            fig = Figure(figsize=(width, height))
+            fig.subplots_adjust(
+                left=0.85 / width, right=1.0 - 0.2 / width, bottom=0.6 / height,
+                top=1.0 - 0.75 / height, wspace=0.45,
+            )  # fmt: skip
+            grid = fig.subplots(1, len(_PROJECTIONS), squeeze=False)
+            axes, own = [grid[0, i] for i in range(len(_PROJECTIONS))], True
+        else:
+            fig, axes, own = panels(ax, len(_PROJECTIONS))
+        for a, (h, v) in zip(axes, _PROJECTIONS, strict=True):
+            for idx, (name, p) in enumerate(drawn.items()):
+                thin = _thin(p, max_points)
+                style = controller_style(name, idx)
+                a.plot(thin[:, h], thin[:, v], zorder=3 + 0.1 * idx, **style.kwargs())
+            if ref is not None:
+                thin = _thin(ref, max_points)
+                a.plot(thin[:, h], thin[:, v], zorder=4, **REFERENCE_STYLE.kwargs())
+                a.plot(
+                    ref[0, h], ref[0, v], marker="o", markersize=5, color="black",
+                    markerfacecolor="none", linestyle="none", zorder=5, label="_start",
+                )  # fmt: skip
+            a.set_xlabel(f"{_AXIS_NAMES[h]} (m)")
+            a.set_ylabel(f"{_AXIS_NAMES[v]} (m)")
+            a.set_aspect("equal", adjustable="datalim")
+            a.margins(0.08)
+            a.grid(True, which="major")
+        frame(fig, axes, own, title)
+    return fig
+
+
 # ---------------------------------------------------------------------------- one scenario
 def scenario_figures(
-    results: Results, *, title: str, only: Sequence[str] | None = None
+    results: Results,
+    *,
+    title: str,
+    only: Sequence[str] | None = None,
+    tool_paths: Mapping[str, ArrayLike] | None = None,
+    tool_reference: ArrayLike | None = None,
 ) -> dict[str, Figure]:
-    """Every figure of one scenario (SPEC §7), keyed by :data:`FIGURES`, in that order.
+    """Every figure of one scenario (SPEC §7), keyed by :data:`FIGURES` (and
+    :data:`TOOL_FIGURES` with ``tool_paths``), in that order.
 
     Parameters
     ----------
@@ -449,19 +550,25 @@ def scenario_figures(
         The scenario, e.g. ``"A. sign switching"``; each figure's title is
         ``"<what it shows> — <title>"``.
     only : sequence of str, optional
-        Draw just these figures (names from :data:`FIGURES`), e.g. to share the figures of a
-        study out among processes.
+        Draw just these figures (names from :data:`FIGURES`, or :data:`TOOL_FIGURES` with
+        ``tool_paths``), e.g. to share the figures of a study out among processes.
+    tool_paths : Mapping[str, array_like, shape (T, 3)], optional
+        Each controller's tool path in the root frame (m), for the ``tool_path`` figure
+        (:func:`plot_tool_path`); a serial arm's scenario gives them, a planar one does not.
+    tool_reference : array_like, shape (T, 3), optional
+        The desired tool path, drawn with ``tool_paths``.
 
     Raises
     ------
     ValueError
-        If ``only`` names a figure that is not in :data:`FIGURES`.
+        If ``only`` names a figure that is not among those of this scenario.
     """
     _items(results)
-    wanted = list(FIGURES) if only is None else list(only)
-    unknown = [name for name in wanted if name not in FIGURES]
+    names = FIGURES + (TOOL_FIGURES if tool_paths is not None else ())
+    wanted = list(names) if only is None else list(only)
+    unknown = [name for name in wanted if name not in names]
     if unknown:
-        raise ValueError(f"unknown figure {unknown[0]!r}; the figures are {', '.join(FIGURES)}")
+        raise ValueError(f"unknown figure {unknown[0]!r}; the figures are {', '.join(names)}")
 
     def full(what: str) -> str:
         return f"{what} — {title}" if title else what
@@ -479,4 +586,9 @@ def scenario_figures(
             results, title=full(f"Steady-state error, last {DEFAULT_WINDOW:g} s")
         ),
     }
-    return {name: draw[name]() for name in FIGURES if name in wanted}
+    if tool_paths is not None:
+        paths = tool_paths
+        draw["tool_path"] = lambda: plot_tool_path(
+            paths, tool_reference, title=full("Tool path in the root frame")
+        )
+    return {name: draw[name]() for name in names if name in wanted}

@@ -2,7 +2,7 @@
 
 - :data:`SCENARIOS` — ``sign``, ``tanh``, ``noise``, shipped as TOML files in
   ``slidingarm/study/scenarios/`` (with their common base ``paper.toml``, where the shared gains
-  and their reasons live);
+  and their reasons live); :data:`SHIPPED` adds the UR5's ``ur5`` and ``ur5_sign``;
 - :func:`run_scenario` — simulate every controller of a scenario;
 - :func:`run` — one scenario's results folder (CSVs, metrics, figures, config, manifest);
 - :func:`reproduce` — the whole study with its analyses and report.
@@ -14,6 +14,7 @@ from slidingarm.study.reproduce import Progress, StudyOutput, reproduce, run, ru
 from slidingarm.study.shipped import (
     BASE,
     SCENARIOS,
+    SHIPPED,
     load_shipped,
     resolve_scenario,
     scenario_path,
@@ -24,6 +25,7 @@ __all__ = [
     "BASE",
     "PAPER_MSE",
     "SCENARIOS",
+    "SHIPPED",
     "OutputError",
     "Progress",
     "StudyOutput",

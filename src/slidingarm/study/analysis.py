@@ -31,6 +31,7 @@ from slidingarm.control.surfaces import (
 )
 from slidingarm.metrics import DEFAULT_LATE_FRACTION, LATE_COLUMNS, summary
 from slidingarm.metrics import mse as metric_mse
+from slidingarm.models.serial import SerialArm
 from slidingarm.results import SimResult
 from slidingarm.simulate import SimulationError, simulate, simulate_batch
 from slidingarm.study.paper import PAPER_MSE, PAPER_MSE_SWITCHING, RANKING
@@ -60,6 +61,7 @@ __all__ = [
     "metrics_table",
     "ranking_mse",
     "simulate_setup",
+    "tool_paths",
 ]
 
 #: "After the transient": the last ``LATE_FRACTION`` of each run, the samples with
@@ -192,6 +194,35 @@ def simulate_setup(
         done.update(zip(pending, (batch[b] for b in range(len(batch))), strict=True))
         pending = []
     return {label: done[label] for label in runs}
+
+
+def tool_paths(
+    setup: Setup, results: Mapping[str, SimResult]
+) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    r"""The desired and each run's actual tool-tip path of a serial arm, in its root frame.
+
+    The desired path is the reference through the nominal arm's kinematics,
+    :math:`p_d(t) = \mathrm{fk}_{nominal}(q_d(t))` (where the controllers are asked to take the
+    tool); each actual path is the run's joint angles through the simulated plant's,
+    :math:`p(t) = \mathrm{fk}_{plant}(q(t))` (where the tool went, a length error included;
+    a payload does not move the tool frame).
+
+    Returns
+    -------
+    (ndarray, dict of str to ndarray) or None
+        ``(desired, {label: actual})``, each of shape (T, 3) in metres; ``None`` for a planar
+        arm, whose figures show joints only.
+    """
+    nominal, plant = setup.nominal, setup.plant
+    if not isinstance(nominal, SerialArm) or not isinstance(plant, SerialArm) or not results:
+        return None
+    first = next(iter(results.values()))
+    desired = np.asarray(nominal.tool_position(first.q_ref), dtype=np.float64)
+    actual = {
+        label: np.asarray(plant.tool_position(r.q), dtype=np.float64)
+        for label, r in results.items()
+    }
+    return desired, actual
 
 
 # --------------------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ kept consistent)::
     convergence.csv chattering.csv errata.csv gain_grid.csv checks.csv   the report's tables
     <scenario>/<controller>.csv      every sample: t, q1.., qd1.., qref1.., qdref1.., qm1..,
                                      qdm1.., tau1.., s1..
-    figures/<scenario>_<figure>.png and .svg
+    figures/<scenario>_<figure>.png and .svg    (a serial arm's scenario adds tool_path)
     config/<scenario>.toml           the exact scenario run, resolved and self-contained
     report.md report.html            the report (the HTML embeds its figures)
     manifest.json                    version, seeds, command, runtime, every file's SHA-256;
@@ -34,6 +34,7 @@ import pandas as pd
 
 from slidingarm._version import __version__
 from slidingarm.config import Scenario, Setup
+from slidingarm.models.serial import SerialArm
 from slidingarm.results import SimResult
 from slidingarm.study import analysis as A
 from slidingarm.study.output import Staging, csv_bytes
@@ -152,13 +153,18 @@ def render_figures(
     title: str,
     fig_dir: Path,
     only: Sequence[str] | None = None,
+    tool_paths: tuple[np.ndarray, Mapping[str, np.ndarray]] | None = None,
 ) -> dict[str, Path]:
     """Draw and save the figures of one scenario (or ``only`` these) as
-    ``fig_dir/<name>_<figure>.png/.svg``; return figure name → PNG path. (Top-level so that a
-    worker process can run it.)"""
+    ``fig_dir/<name>_<figure>.png/.svg``; return figure name → PNG path. ``tool_paths`` (a
+    serial arm's ``(desired, {label: actual})``, :func:`slidingarm.study.analysis.tool_paths`)
+    adds the tool-path figure. (Top-level so that a worker process can run it.)"""
     from slidingarm.plotting import save_figure, scenario_figures
 
-    figures = scenario_figures(results, title=title, only=only)
+    desired, actual = (None, None) if tool_paths is None else tool_paths
+    figures = scenario_figures(
+        results, title=title, only=only, tool_paths=actual, tool_reference=desired
+    )
     paths: dict[str, Path] = {}
     for fig_name, fig in figures.items():
         written = save_figure(fig, fig_dir / f"{name}_{fig_name}")
@@ -250,12 +256,13 @@ def _warm_up() -> None:
     import slidingarm.plotting  # noqa: F401
 
 
-def _figure_names() -> tuple[str, ...]:
-    """The figures of one scenario, :data:`slidingarm.plotting.FIGURES` (this imports the
-    plotting stack, so it is called only when figures are drawn)."""
-    from slidingarm.plotting import FIGURES
+def _figure_names(tool: bool = False) -> tuple[str, ...]:
+    """The figures of one scenario, :data:`slidingarm.plotting.FIGURES`, and with ``tool`` (a
+    serial arm's) :data:`~slidingarm.plotting.TOOL_FIGURES` (this imports the plotting stack,
+    so it is called only when figures are drawn)."""
+    from slidingarm.plotting import FIGURES, TOOL_FIGURES
 
-    return FIGURES
+    return FIGURES + (TOOL_FIGURES if tool else ())
 
 
 def _default_jobs() -> int:
@@ -293,7 +300,8 @@ def run(
         setup = scenario.build()
         name = setup.name
         n_ctrl = len(setup.controllers)
-        n_figures = len(_figure_names()) if figures else 0
+        serial = isinstance(setup.nominal, SerialArm)
+        n_figures = len(_figure_names(serial)) if figures else 0
         steps = _Steps(progress, 2 * n_ctrl + n_figures + 2)
         steps.start(f"{name}: simulating")
         results = A.simulate_setup(setup)
@@ -305,7 +313,8 @@ def run(
         steps("metrics and config")
         if figures:
             steps.start(f"{name}: figures")
-            render_figures(name, results, _title(setup), staging.path / "figures")
+            paths = A.tool_paths(setup, results)
+            render_figures(name, results, _title(setup), staging.path / "figures", tool_paths=paths)
             steps(f"{name}: figures", n_figures)
         runtime = time.perf_counter() - t0
         staging.write_manifest(
