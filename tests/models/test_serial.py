@@ -801,3 +801,74 @@ def test_rk4_step_is_classical_rk4_on_pinocchio_dynamics(index: int) -> None:
         scale = max(1.0, float(np.max(np.abs(v_ref))))
         assert np.max(np.abs(q - q_ref)) <= 1e-12 * scale
         assert np.max(np.abs(v - v_ref)) <= 1e-9 * scale
+
+
+@pytest.mark.parametrize("index", range(0, 60, 10))
+def test_to_urdf_round_trip_keeps_the_dynamics(index: int) -> None:
+    """``to_urdf`` writes the merged bodies: read back, by us and by Pinocchio, it is the
+    same arm (M, q̈) and the same tool frame."""
+    c = _case(index)
+    text = c.arm.to_urdf()
+    back = SerialArm.from_urdf(text, gravity=c.arm.gravity, tool=c.arm.tool)
+    q, qd, tau = c.q[:10], c.qd[:10], c.tau[:10]
+    scale = max(1.0, float(np.max(np.abs(c.arm.mass_matrix(q)))))
+    assert np.max(np.abs(back.mass_matrix(q) - c.arm.mass_matrix(q))) <= 1e-12 * scale
+    ref = pin_aba(pin_model(text, c.arm.gravity), q, qd, tau)
+    got = c.arm.forward_dynamics(q, qd, tau)
+    assert np.max(np.abs(got - ref)) <= 1e-9 * max(1.0, float(np.max(np.abs(ref))))
+    np.testing.assert_allclose(back.tool_position(q), c.arm.tool_position(q), atol=1e-12)
+
+
+def test_payload_at_a_link_and_scaling_match_pinocchio() -> None:
+    """``with_payload`` (a point mass at a named link's origin) and ``scaled`` against
+    Pinocchio given the same changes: a point-mass body appended at that frame, and the
+    URDF's masses and inertias multiplied."""
+    from slidingarm import ModelMismatch, robots
+
+    ur5 = robots.load("ur5")
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-3, 3, (30, 6))
+    plant = ModelMismatch(payload=1.5, payload_link="wrist_2_link").apply(ur5)
+    model = pin.buildModelFromUrdf(str(robots.path("ur5")))
+    frame = model.frames[model.getFrameId("wrist_2_link")]
+    model.appendBodyToJoint(
+        frame.parentJoint, pin.Inertia(1.5, np.zeros(3), np.zeros((3, 3))), frame.placement
+    )
+    data = model.createData()
+    for qi in q:
+        m_ref = pin.crba(model, data, qi)
+        m_ref = np.triu(m_ref) + np.triu(m_ref, 1).T
+        assert np.max(np.abs(plant.mass_matrix(qi) - m_ref)) <= 1e-12
+        g_ref = pin.computeGeneralizedGravity(model, data, qi)
+        assert np.max(np.abs(plant.gravity_torque(qi) - g_ref)) <= 1e-11
+    heavier = ur5.scaled(mass=1.2)
+    assert np.max(np.abs(heavier.mass_matrix(q) - 1.2 * ur5.mass_matrix(q))) <= 1e-12
+
+
+def test_batches_of_serial_arms_equal_single_runs() -> None:
+    """Per-run plants, noise and seeds on a serial arm: a batch equals its single runs."""
+    from slidingarm import (
+        FTSMC,
+        GaussianNoise,
+        ModelMismatch,
+        QuinticReference,
+        Sensor,
+        robots,
+        simulate,
+        simulate_batch,
+    )
+
+    ur5 = robots.load("ur5")
+    ctrl = FTSMC(ur5, alpha=2.0, beta=2.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
+    ref = QuinticReference(np.zeros(6), np.full(6, 0.4), duration=1.0)
+    plants = [ModelMismatch(payload=p).apply(ur5) for p in (0.0, 0.5, 2.0)]
+    sensor = Sensor(noise=GaussianNoise(1e-5))
+    opts = {"q0": np.zeros(6), "t_final": 1.0, "dt": 1e-3, "sensor": sensor}
+    batch = simulate_batch(
+        plants, ctrl, ref, seeds=[1, 2, 3], torque_limit=[150.0] * 3 + [28.0] * 3, **opts
+    )
+    for b, plant in enumerate(plants):
+        one = simulate(plant, ctrl, ref, seed=b + 1, torque_limit=[150.0] * 3 + [28.0] * 3, **opts)
+        np.testing.assert_array_equal(batch.q[b], one.q)
+    assert batch.ok.all()
+    assert not np.array_equal(batch.q[0], batch.q[2])  # the payload mattered
