@@ -28,7 +28,8 @@ The joint's motion subspace ``S`` is ``(a, 0)`` (revolute) or ``(0, a)`` (prisma
 
 **Algorithms**: recursive Newton-Euler (inverse dynamics, the bias ``h = C q̇ + G``, gravity),
 O(n); the composite-rigid-body algorithm (``M``), O(n²); the articulated-body algorithm
-(forward dynamics), O(n). Gravity enters as the root's acceleration ``(0, 0, 0, 0, 0, g)``.
+(forward dynamics), O(n), which works in the root frame at its origin instead. Gravity enters
+as the root's acceleration ``(0, 0, 0, 0, 0, g)``.
 
 **Workspace contract** (see :mod:`slidingarm.models._dispatch`): every kernel that evaluates
 at ``q`` leaves in rows 0-11 the q-only kinematics of ``q`` — the body's rotation ``R_pc``
@@ -57,14 +58,12 @@ P_IO = 20
 # workspace rows
 W_ROT = 0  # 9: R_pc
 W_POS = 9  # 3: r
-W_V = 12  # 6: the body's velocity
-W_A = 18  # 6: its acceleration (RNEA) or velocity-product acceleration c (ABA)
-W_F = 24  # 6: its force (RNEA) or bias force pA (ABA)
-W_IA = 30  # 36: articulated inertia (ABA) or composite inertia (CRBA, first 10 rows)
-W_U = 66  # 6: U = IA S
-W_D = 72  # D = S^T U
-W_UU = 73  # u = tau - S^T pA
-W_T = 74  # 27: three 3x3 temporaries
+W_V = 12  # 6: the body's velocity (coriolis_into); aba_known uses rows 12-41, see there
+W_A = 18  # 6: its acceleration (RNEA) or the derivative of its joint's axis (coriolis_into)
+W_F = 24  # 6: its force (RNEA)
+W_IA = 30  # 10: composite inertia (CRBA)
+W_U = 66  # 6: the joint's axis in the root frame (coriolis_into)
+W_T = 74  # 12: the body's rotation and origin in the root frame (coriolis_into)
 #: Rows of the workspace these kernels use.
 W_CS = 101  # 2: cos and sin of each coordinate
 WORK_ROWS = 103
@@ -490,68 +489,43 @@ def mass_and_bias_into(
     rnea_known(p, g, qd, 1.0, qd, 0.0, 1.0, h, work)
 
 
-@njit(**_OPTS)
-def _mat(
-    work: np.ndarray, row: int, i: int
-) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """The 3x3 matrix stored row-major in rows ``row..row+8`` of column ``i``."""
-    return (
-        work[row, i], work[row + 1, i], work[row + 2, i],
-        work[row + 3, i], work[row + 4, i], work[row + 5, i],
-        work[row + 6, i], work[row + 7, i], work[row + 8, i],
-    )  # fmt: skip
+# workspace rows of aba_known (world-coordinate articulated-body algorithm)
+_AB_S = W_V  # 6: the joint's motion subspace s_i in world coordinates
+_AB_I = 18  # 10: the body's rigid inertia at the world origin: m, h, I_o (xx, yy, zz, xy, xz, yz)
+_AB_P = 28  # 6: its bias force p_i = I_i C_i + v_i x* I_i v_i
+_AB_U = 34  # 6: U_i = I^A_i s_i
+_AB_RD = 40  # 1 / D_i
+_AB_UU = 41  # u_i = tau_i - s_i^T p^A_i
 
 
 @njit(**_OPTS)
-def _mul(a: tuple, b: tuple) -> tuple:
-    """``a b`` of 3x3 matrices as row-major 9-tuples."""
+def _rigid_times(
+    m: float,
+    hx: float,
+    hy: float,
+    hz: float,
+    ixx: float,
+    iyy: float,
+    izz: float,
+    ixy: float,
+    ixz: float,
+    iyz: float,
+    wx: float,
+    wy: float,
+    wz: float,
+    vx: float,
+    vy: float,
+    vz: float,
+) -> tuple[float, float, float, float, float, float]:
+    """A rigid inertia ``(m, h, I_o)`` times a motion: ``(I_o ω + h × v, m v - h × ω)``."""
     return (
-        a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
-        a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
-        a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
-        a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
-        a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
-        a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
-        a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
-        a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
-        a[6] * b[2] + a[7] * b[5] + a[8] * b[8],
+        ixx * wx + ixy * wy + ixz * wz + hy * vz - hz * vy,
+        ixy * wx + iyy * wy + iyz * wz + hz * vx - hx * vz,
+        ixz * wx + iyz * wy + izz * wz + hx * vy - hy * vx,
+        m * vx - (hy * wz - hz * wy),
+        m * vy - (hz * wx - hx * wz),
+        m * vz - (hx * wy - hy * wx),
     )
-
-
-@njit(**_OPTS)
-def _mul_t(a: tuple, b: tuple) -> tuple:
-    """``a b^T`` of 3x3 matrices as row-major 9-tuples."""
-    return (
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2],
-        a[0] * b[3] + a[1] * b[4] + a[2] * b[5],
-        a[0] * b[6] + a[1] * b[7] + a[2] * b[8],
-        a[3] * b[0] + a[4] * b[1] + a[5] * b[2],
-        a[3] * b[3] + a[4] * b[4] + a[5] * b[5],
-        a[3] * b[6] + a[4] * b[7] + a[5] * b[8],
-        a[6] * b[0] + a[7] * b[1] + a[8] * b[2],
-        a[6] * b[3] + a[7] * b[4] + a[8] * b[5],
-        a[6] * b[6] + a[7] * b[7] + a[8] * b[8],
-    )
-
-
-@njit(**_OPTS)
-def _times_skew(a: tuple, rx: float, ry: float, rz: float) -> tuple:
-    """``a [r]x``: row ``k`` is ``-(r x a[k, :])``."""
-    return (
-        rz * a[1] - ry * a[2], rx * a[2] - rz * a[0], ry * a[0] - rx * a[1],
-        rz * a[4] - ry * a[5], rx * a[5] - rz * a[3], ry * a[3] - rx * a[4],
-        rz * a[7] - ry * a[8], rx * a[8] - rz * a[6], ry * a[6] - rx * a[7],
-    )  # fmt: skip
-
-
-@njit(**_OPTS)
-def _skew_times(a: tuple, rx: float, ry: float, rz: float) -> tuple:
-    """``[r]x a``: column ``k`` is ``r x a[:, k]``."""
-    return (
-        ry * a[6] - rz * a[3], ry * a[7] - rz * a[4], ry * a[8] - rz * a[5],
-        rz * a[0] - rx * a[6], rz * a[1] - rx * a[7], rz * a[2] - rx * a[8],
-        rx * a[3] - ry * a[0], rx * a[4] - ry * a[1], rx * a[5] - ry * a[2],
-    )  # fmt: skip
 
 
 @njit(**_OPTS)
@@ -565,244 +539,47 @@ def aba_known(
 ) -> bool:
     """Articulated-body algorithm with the kinematics in ``work``:
     :math:`\\ddot q = M^{-1}(\\tau - h)` into ``out``; ``False`` if an articulated inertia
-    along its joint, :math:`D_i = S_i^T I^A_i S_i`, is not positive (``M`` not positive
+    along its joint, :math:`D_i = s_i^T I^A_i s_i`, is not positive (``M`` not positive
     definite).
 
-    Pass 1: velocities :math:`v_i`, :math:`c_i = v_i \\times S_i \\dot q_i`,
-    :math:`I^A_i = I_i`, :math:`p^A_i = v_i \\times^* I_i v_i`. Pass 2 (tip to root):
-    :math:`U_i = I^A_i S_i`, :math:`D_i = S_i^T U_i`, :math:`u_i = \\tau_i - S_i^T p^A_i`,
-    :math:`I^a = I^A_i - U_i U_i^T / D_i`, :math:`p^a = p^A_i + I^a c_i + U_i u_i / D_i`,
-    added to the parent as :math:`X_i^T I^a X_i` and :math:`X_i^T p^a`. Pass 3 (root to tip):
-    :math:`a' = X_i a_{i-1} + c_i`, :math:`\\ddot q_i = (u_i - U_i^T a') / D_i`,
-    :math:`a_i = a' + S_i \\ddot q_i`.
-
-    :math:`I^A = [[A, B], [B^T, C]]` is kept as its blocks (rows ``W_IA``: ``A`` 0-8, ``B``
-    9-17, ``C`` 18-26, row-major). Carried to the parent, with :math:`\\tilde X = R X R^T`:
-    :math:`A' = \\tilde A - Y - Y^T - [r]_\\times \\tilde C [r]_\\times`,
-    :math:`B' = \\tilde B + [r]_\\times \\tilde C`, :math:`C' = \\tilde C`, where
-    :math:`Y = \\tilde B [r]_\\times`.
+    Everything is in root (world) coordinates at the root's origin, so no spatial transform
+    is applied to an inertia or a force. Pass 1 (root to tip): the body's pose
+    :math:`R_{0i} = R_{0,i-1} R_{pc}`, :math:`p_{0i} = p_{0,i-1} + R_{0,i-1} r`; its joint's
+    axis :math:`s_i = (e, p_{0i} \\times e)` (revolute) or :math:`(0, e)` (prismatic) with
+    :math:`e = R_{0i} a`; :math:`v_i = v_{i-1} + s_i \\dot q_i`; the acceleration at
+    :math:`\\ddot q = 0`, :math:`C_i = C_{i-1} + v_i \\times s_i \\dot q_i` from
+    :math:`C_{-1} = (0, 0, 0, 0, 0, g)` (gravity as the root's acceleration); the rigid inertia
+    :math:`I_i` at the origin (``I_o`` rotated once, :math:`h' = R h + m p`, shifted as in
+    :func:`crba_known`) and the bias force :math:`p_i = I_i C_i + v_i \\times^* I_i v_i`. With
+    :math:`a_i = C_i + \\hat a_i`, :math:`\\hat a_i = \\hat a_{i-1} + s_i \\ddot q_i`, the
+    velocity-product term of the recursion is zero. Pass 2 (tip to root), the symmetric
+    :math:`I^A` (21 entries) and :math:`p^A` carried in registers:
+    :math:`I^A_i = I_i + I^a_{i+1}`, :math:`p^A_i = p_i + p^a_{i+1}`, :math:`U_i = I^A_i s_i`,
+    :math:`D_i = s_i^T U_i`, :math:`u_i = \\tau_i - s_i^T p^A_i`,
+    :math:`I^a_i = I^A_i - U_i U_i^T / D_i`, :math:`p^a_i = p^A_i + U_i u_i / D_i`. Pass 3
+    (root to tip): :math:`\\ddot q_i = (u_i - U_i^T \\hat a_{i-1}) / D_i`,
+    :math:`\\hat a_i = \\hat a_{i-1} + s_i \\ddot q_i` from :math:`\\hat a_{-1} = 0`.
     """
     n = qd.shape[0]
-    ia = W_IA
+    # world pose of the body, its velocity (w, v) and its acceleration at qdd = 0 (b, c)
+    e00 = 1.0
+    e01 = 0.0
+    e02 = 0.0
+    e10 = 0.0
+    e11 = 1.0
+    e12 = 0.0
+    e20 = 0.0
+    e21 = 0.0
+    e22 = 1.0
+    ox = 0.0
+    oy = 0.0
+    oz = 0.0
     wx = 0.0
     wy = 0.0
     wz = 0.0
     vx = 0.0
     vy = 0.0
     vz = 0.0
-    for i in range(n):
-        wx, wy, wz, vx, vy, vz = _motion_in(work, i, wx, wy, wz, vx, vy, vz)
-        ax = p[P_AXIS, i]
-        ay = p[P_AXIS + 1, i]
-        az = p[P_AXIS + 2, i]
-        dq = qd[i]
-        if p[P_TYPE, i] == 0.0:
-            wx += ax * dq
-            wy += ay * dq
-            wz += az * dq
-            work[W_A, i] = (wy * az - wz * ay) * dq
-            work[W_A + 1, i] = (wz * ax - wx * az) * dq
-            work[W_A + 2, i] = (wx * ay - wy * ax) * dq
-            work[W_A + 3, i] = (vy * az - vz * ay) * dq
-            work[W_A + 4, i] = (vz * ax - vx * az) * dq
-            work[W_A + 5, i] = (vx * ay - vy * ax) * dq
-        else:
-            vx += ax * dq
-            vy += ay * dq
-            vz += az * dq
-            work[W_A, i] = 0.0
-            work[W_A + 1, i] = 0.0
-            work[W_A + 2, i] = 0.0
-            work[W_A + 3, i] = (wy * az - wz * ay) * dq
-            work[W_A + 4, i] = (wz * ax - wx * az) * dq
-            work[W_A + 5, i] = (wx * ay - wy * ax) * dq
-        n1x, n1y, n1z, f1x, f1y, f1z = _inertia_times(p, i, wx, wy, wz, vx, vy, vz)
-        work[W_F, i] = wy * n1z - wz * n1y + vy * f1z - vz * f1y
-        work[W_F + 1, i] = wz * n1x - wx * n1z + vz * f1x - vx * f1z
-        work[W_F + 2, i] = wx * n1y - wy * n1x + vx * f1y - vy * f1x
-        work[W_F + 3, i] = wy * f1z - wz * f1y
-        work[W_F + 4, i] = wz * f1x - wx * f1z
-        work[W_F + 5, i] = wx * f1y - wy * f1x
-        # I^A = I: A = I_o, B = [h]x, C = m 1
-        m = p[P_MASS, i]
-        hx = p[P_H, i]
-        hy = p[P_H + 1, i]
-        hz = p[P_H + 2, i]
-        xx = p[P_IO, i]
-        yy = p[P_IO + 1, i]
-        zz = p[P_IO + 2, i]
-        xy = p[P_IO + 3, i]
-        xz = p[P_IO + 4, i]
-        yz = p[P_IO + 5, i]
-        blocks = (
-            xx, xy, xz, xy, yy, yz, xz, yz, zz,
-            0.0, -hz, hy, hz, 0.0, -hx, -hy, hx, 0.0,
-            m, 0.0, 0.0, 0.0, m, 0.0, 0.0, 0.0, m,
-        )  # fmt: skip
-        for k in range(27):
-            work[ia + k, i] = blocks[k]
-    for i in range(n - 1, -1, -1):
-        ax = p[P_AXIS, i]
-        ay = p[P_AXIS + 1, i]
-        az = p[P_AXIS + 2, i]
-        am = _mat(work, ia, i)
-        bm = _mat(work, ia + 9, i)
-        cm = _mat(work, ia + 18, i)
-        if p[P_TYPE, i] == 0.0:  # U = (A a, B^T a)
-            u0 = am[0] * ax + am[1] * ay + am[2] * az
-            u1 = am[3] * ax + am[4] * ay + am[5] * az
-            u2 = am[6] * ax + am[7] * ay + am[8] * az
-            u3 = bm[0] * ax + bm[3] * ay + bm[6] * az
-            u4 = bm[1] * ax + bm[4] * ay + bm[7] * az
-            u5 = bm[2] * ax + bm[5] * ay + bm[8] * az
-            d = ax * u0 + ay * u1 + az * u2
-            u = tau[i] - (ax * work[W_F, i] + ay * work[W_F + 1, i] + az * work[W_F + 2, i])
-        else:  # U = (B a, C a)
-            u0 = bm[0] * ax + bm[1] * ay + bm[2] * az
-            u1 = bm[3] * ax + bm[4] * ay + bm[5] * az
-            u2 = bm[6] * ax + bm[7] * ay + bm[8] * az
-            u3 = cm[0] * ax + cm[1] * ay + cm[2] * az
-            u4 = cm[3] * ax + cm[4] * ay + cm[5] * az
-            u5 = cm[6] * ax + cm[7] * ay + cm[8] * az
-            d = ax * u3 + ay * u4 + az * u5
-            u = tau[i] - (ax * work[W_F + 3, i] + ay * work[W_F + 4, i] + az * work[W_F + 5, i])
-        if not d > 0.0:
-            return False
-        work[W_U, i] = u0
-        work[W_U + 1, i] = u1
-        work[W_U + 2, i] = u2
-        work[W_U + 3, i] = u3
-        work[W_U + 4, i] = u4
-        work[W_U + 5, i] = u5
-        work[W_D, i] = d
-        work[W_UU, i] = u
-        if i == 0:
-            break
-        rd = 1.0 / d
-        # I^a = I^A - U U^T / D, blockwise
-        w0 = u0 * rd
-        w1 = u1 * rd
-        w2 = u2 * rd
-        am = (
-            am[0] - w0 * u0, am[1] - w0 * u1, am[2] - w0 * u2,
-            am[3] - w1 * u0, am[4] - w1 * u1, am[5] - w1 * u2,
-            am[6] - w2 * u0, am[7] - w2 * u1, am[8] - w2 * u2,
-        )  # fmt: skip
-        bm = (
-            bm[0] - w0 * u3, bm[1] - w0 * u4, bm[2] - w0 * u5,
-            bm[3] - w1 * u3, bm[4] - w1 * u4, bm[5] - w1 * u5,
-            bm[6] - w2 * u3, bm[7] - w2 * u4, bm[8] - w2 * u5,
-        )  # fmt: skip
-        w3 = u3 * rd
-        w4 = u4 * rd
-        w5 = u5 * rd
-        cm = (
-            cm[0] - w3 * u3, cm[1] - w3 * u4, cm[2] - w3 * u5,
-            cm[3] - w4 * u3, cm[4] - w4 * u4, cm[5] - w4 * u5,
-            cm[6] - w5 * u3, cm[7] - w5 * u4, cm[8] - w5 * u5,
-        )  # fmt: skip
-        # p^a = p^A + I^a c + U u / D
-        c0 = work[W_A, i]
-        c1 = work[W_A + 1, i]
-        c2 = work[W_A + 2, i]
-        c3 = work[W_A + 3, i]
-        c4 = work[W_A + 4, i]
-        c5 = work[W_A + 5, i]
-        ur = u * rd
-        pn0 = (
-            work[W_F, i]
-            + am[0] * c0
-            + am[1] * c1
-            + am[2] * c2
-            + bm[0] * c3
-            + bm[1] * c4
-            + bm[2] * c5
-            + u0 * ur
-        )
-        pn1 = (
-            work[W_F + 1, i]
-            + am[3] * c0
-            + am[4] * c1
-            + am[5] * c2
-            + bm[3] * c3
-            + bm[4] * c4
-            + bm[5] * c5
-            + u1 * ur
-        )
-        pn2 = (
-            work[W_F + 2, i]
-            + am[6] * c0
-            + am[7] * c1
-            + am[8] * c2
-            + bm[6] * c3
-            + bm[7] * c4
-            + bm[8] * c5
-            + u2 * ur
-        )
-        pf0 = (
-            work[W_F + 3, i]
-            + bm[0] * c0
-            + bm[3] * c1
-            + bm[6] * c2
-            + cm[0] * c3
-            + cm[1] * c4
-            + cm[2] * c5
-            + u3 * ur
-        )
-        pf1 = (
-            work[W_F + 4, i]
-            + bm[1] * c0
-            + bm[4] * c1
-            + bm[7] * c2
-            + cm[3] * c3
-            + cm[4] * c4
-            + cm[5] * c5
-            + u4 * ur
-        )
-        pf2 = (
-            work[W_F + 5, i]
-            + bm[2] * c0
-            + bm[5] * c1
-            + bm[8] * c2
-            + cm[6] * c3
-            + cm[7] * c4
-            + cm[8] * c5
-            + u5 * ur
-        )
-        # X^T I^a X: rotate the blocks into the parent's orientation, then shift by r
-        rm = _mat(work, W_ROT, i)
-        at = _mul_t(_mul(rm, am), rm)
-        bt = _mul_t(_mul(rm, bm), rm)
-        ct = _mul_t(_mul(rm, cm), rm)
-        rx = work[W_POS, i]
-        ry = work[W_POS + 1, i]
-        rz = work[W_POS + 2, i]
-        y = _times_skew(bt, rx, ry, rz)
-        z = _skew_times(_times_skew(ct, rx, ry, rz), rx, ry, rz)
-        sc = _skew_times(ct, rx, ry, rz)
-        j = i - 1
-        work[ia, j] += at[0] - 2.0 * y[0] - z[0]
-        work[ia + 4, j] += at[4] - 2.0 * y[4] - z[4]
-        work[ia + 8, j] += at[8] - 2.0 * y[8] - z[8]
-        a01 = at[1] - y[1] - y[3] - z[1]
-        a02 = at[2] - y[2] - y[6] - z[2]
-        a12 = at[5] - y[5] - y[7] - z[5]
-        work[ia + 1, j] += a01
-        work[ia + 3, j] += a01
-        work[ia + 2, j] += a02
-        work[ia + 6, j] += a02
-        work[ia + 5, j] += a12
-        work[ia + 7, j] += a12
-        for k in range(9):
-            work[ia + 9 + k, j] += bt[k] + sc[k]
-            work[ia + 18 + k, j] += ct[k]
-        nx, ny, nz, fx, fy, fz = _force_out(work, i, pn0, pn1, pn2, pf0, pf1, pf2)
-        work[W_F, j] += nx
-        work[W_F + 1, j] += ny
-        work[W_F + 2, j] += nz
-        work[W_F + 3, j] += fx
-        work[W_F + 4, j] += fy
-        work[W_F + 5, j] += fz
     bx = 0.0
     by = 0.0
     bz = 0.0
@@ -810,30 +587,285 @@ def aba_known(
     cy = 0.0
     cz = g
     for i in range(n):
-        bx, by, bz, cx, cy, cz = _motion_in(work, i, bx, by, bz, cx, cy, cz)
-        bx += work[W_A, i]
-        by += work[W_A + 1, i]
-        bz += work[W_A + 2, i]
-        cx += work[W_A + 3, i]
-        cy += work[W_A + 4, i]
-        cz += work[W_A + 5, i]
-        ua = (
-            work[W_U, i] * bx + work[W_U + 1, i] * by + work[W_U + 2, i] * bz
-            + work[W_U + 3, i] * cx + work[W_U + 4, i] * cy + work[W_U + 5, i] * cz
-        )  # fmt: skip
-        qdd = (work[W_UU, i] - ua) / work[W_D, i]
-        out[i] = qdd
+        r00 = work[0, i]
+        r01 = work[1, i]
+        r02 = work[2, i]
+        r10 = work[3, i]
+        r11 = work[4, i]
+        r12 = work[5, i]
+        r20 = work[6, i]
+        r21 = work[7, i]
+        r22 = work[8, i]
+        rx = work[W_POS, i]
+        ry = work[W_POS + 1, i]
+        rz = work[W_POS + 2, i]
+        if i == 0:
+            ox = rx
+            oy = ry
+            oz = rz
+            e00, e01, e02, e10, e11, e12, e20, e21, e22 = (
+                r00, r01, r02, r10, r11, r12, r20, r21, r22
+            )  # fmt: skip
+        else:
+            ox += e00 * rx + e01 * ry + e02 * rz
+            oy += e10 * rx + e11 * ry + e12 * rz
+            oz += e20 * rx + e21 * ry + e22 * rz
+            e00, e01, e02, e10, e11, e12, e20, e21, e22 = (
+                e00 * r00 + e01 * r10 + e02 * r20,
+                e00 * r01 + e01 * r11 + e02 * r21,
+                e00 * r02 + e01 * r12 + e02 * r22,
+                e10 * r00 + e11 * r10 + e12 * r20,
+                e10 * r01 + e11 * r11 + e12 * r21,
+                e10 * r02 + e11 * r12 + e12 * r22,
+                e20 * r00 + e21 * r10 + e22 * r20,
+                e20 * r01 + e21 * r11 + e22 * r21,
+                e20 * r02 + e21 * r12 + e22 * r22,
+            )
         ax = p[P_AXIS, i]
         ay = p[P_AXIS + 1, i]
         az = p[P_AXIS + 2, i]
+        ex = e00 * ax + e01 * ay + e02 * az
+        ey = e10 * ax + e11 * ay + e12 * az
+        ez = e20 * ax + e21 * ay + e22 * az
         if p[P_TYPE, i] == 0.0:
-            bx += ax * qdd
-            by += ay * qdd
-            bz += az * qdd
+            s0 = ex
+            s1 = ey
+            s2 = ez
+            s3 = oy * ez - oz * ey
+            s4 = oz * ex - ox * ez
+            s5 = ox * ey - oy * ex
         else:
-            cx += ax * qdd
-            cy += ay * qdd
-            cz += az * qdd
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            s3 = ex
+            s4 = ey
+            s5 = ez
+        work[_AB_S, i] = s0
+        work[_AB_S + 1, i] = s1
+        work[_AB_S + 2, i] = s2
+        work[_AB_S + 3, i] = s3
+        work[_AB_S + 4, i] = s4
+        work[_AB_S + 5, i] = s5
+        dq = qd[i]
+        q0 = s0 * dq
+        q1 = s1 * dq
+        q2 = s2 * dq
+        q3 = s3 * dq
+        q4 = s4 * dq
+        q5 = s5 * dq
+        wx += q0
+        wy += q1
+        wz += q2
+        vx += q3
+        vy += q4
+        vz += q5
+        # C += v x (s qd)
+        bx += wy * q2 - wz * q1
+        by += wz * q0 - wx * q2
+        bz += wx * q1 - wy * q0
+        cx += wy * q5 - wz * q4 + vy * q2 - vz * q1
+        cy += wz * q3 - wx * q5 + vz * q0 - vx * q2
+        cz += wx * q4 - wy * q3 + vx * q1 - vy * q0
+        # the rigid inertia at the world origin
+        m = p[P_MASS, i]
+        hx = p[P_H, i]
+        hy = p[P_H + 1, i]
+        hz = p[P_H + 2, i]
+        jxx = p[P_IO, i]
+        jyy = p[P_IO + 1, i]
+        jzz = p[P_IO + 2, i]
+        jxy = p[P_IO + 3, i]
+        jxz = p[P_IO + 4, i]
+        jyz = p[P_IO + 5, i]
+        gx = e00 * hx + e01 * hy + e02 * hz
+        gy = e10 * hx + e11 * hy + e12 * hz
+        gz = e20 * hx + e21 * hy + e22 * hz
+        # T = R I_o, then R I_o R^T (upper triangle)
+        t00 = e00 * jxx + e01 * jxy + e02 * jxz
+        t01 = e00 * jxy + e01 * jyy + e02 * jyz
+        t02 = e00 * jxz + e01 * jyz + e02 * jzz
+        t10 = e10 * jxx + e11 * jxy + e12 * jxz
+        t11 = e10 * jxy + e11 * jyy + e12 * jyz
+        t12 = e10 * jxz + e11 * jyz + e12 * jzz
+        t20 = e20 * jxx + e21 * jxy + e22 * jxz
+        t21 = e20 * jxy + e21 * jyy + e22 * jyz
+        t22 = e20 * jxz + e21 * jyz + e22 * jzz
+        # shifted by p: I -= p k^T + k p^T - 2 (p . k) 1 with k = R h + m p / 2
+        hm = 0.5 * m
+        kx = gx + hm * ox
+        ky = gy + hm * oy
+        kz = gz + hm * oz
+        pkx = ox * kx
+        pky = oy * ky
+        pkz = oz * kz
+        ixx = t00 * e00 + t01 * e01 + t02 * e02 + 2.0 * (pky + pkz)
+        iyy = t10 * e10 + t11 * e11 + t12 * e12 + 2.0 * (pkx + pkz)
+        izz = t20 * e20 + t21 * e21 + t22 * e22 + 2.0 * (pkx + pky)
+        ixy = t00 * e10 + t01 * e11 + t02 * e12 - (ox * ky + kx * oy)
+        ixz = t00 * e20 + t01 * e21 + t02 * e22 - (ox * kz + kx * oz)
+        iyz = t10 * e20 + t11 * e21 + t12 * e22 - (oy * kz + ky * oz)
+        hx = gx + m * ox
+        hy = gy + m * oy
+        hz = gz + m * oz
+        work[_AB_I, i] = m
+        work[_AB_I + 1, i] = hx
+        work[_AB_I + 2, i] = hy
+        work[_AB_I + 3, i] = hz
+        work[_AB_I + 4, i] = ixx
+        work[_AB_I + 5, i] = iyy
+        work[_AB_I + 6, i] = izz
+        work[_AB_I + 7, i] = ixy
+        work[_AB_I + 8, i] = ixz
+        work[_AB_I + 9, i] = iyz
+        # bias force I C + v x* I v
+        n1x, n1y, n1z, f1x, f1y, f1z = _rigid_times(
+            m, hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz, wx, wy, wz, vx, vy, vz
+        )
+        n2x, n2y, n2z, f2x, f2y, f2z = _rigid_times(
+            m, hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz, bx, by, bz, cx, cy, cz
+        )
+        work[_AB_P, i] = n2x + wy * n1z - wz * n1y + vy * f1z - vz * f1y
+        work[_AB_P + 1, i] = n2y + wz * n1x - wx * n1z + vz * f1x - vx * f1z
+        work[_AB_P + 2, i] = n2z + wx * n1y - wy * n1x + vx * f1y - vy * f1x
+        work[_AB_P + 3, i] = f2x + wy * f1z - wz * f1y
+        work[_AB_P + 4, i] = f2y + wz * f1x - wx * f1z
+        work[_AB_P + 5, i] = f2z + wx * f1y - wy * f1x
+    # I^a of the child, [[A, B], [B^T, C]] with A, C symmetric, and p^a
+    a00 = 0.0
+    a11 = 0.0
+    a22 = 0.0
+    a01 = 0.0
+    a02 = 0.0
+    a12 = 0.0
+    b00 = 0.0
+    b01 = 0.0
+    b02 = 0.0
+    b10 = 0.0
+    b11 = 0.0
+    b12 = 0.0
+    b20 = 0.0
+    b21 = 0.0
+    b22 = 0.0
+    c00 = 0.0
+    c11 = 0.0
+    c22 = 0.0
+    c01 = 0.0
+    c02 = 0.0
+    c12 = 0.0
+    pn0 = 0.0
+    pn1 = 0.0
+    pn2 = 0.0
+    pf0 = 0.0
+    pf1 = 0.0
+    pf2 = 0.0
+    for i in range(n - 1, -1, -1):
+        # I^A = I + I^a (the rigid B is [h]x, its C is m 1)
+        m = work[_AB_I, i]
+        hx = work[_AB_I + 1, i]
+        hy = work[_AB_I + 2, i]
+        hz = work[_AB_I + 3, i]
+        a00 += work[_AB_I + 4, i]
+        a11 += work[_AB_I + 5, i]
+        a22 += work[_AB_I + 6, i]
+        a01 += work[_AB_I + 7, i]
+        a02 += work[_AB_I + 8, i]
+        a12 += work[_AB_I + 9, i]
+        b01 -= hz
+        b02 += hy
+        b10 += hz
+        b12 -= hx
+        b20 -= hy
+        b21 += hx
+        c00 += m
+        c11 += m
+        c22 += m
+        pn0 += work[_AB_P, i]
+        pn1 += work[_AB_P + 1, i]
+        pn2 += work[_AB_P + 2, i]
+        pf0 += work[_AB_P + 3, i]
+        pf1 += work[_AB_P + 4, i]
+        pf2 += work[_AB_P + 5, i]
+        s0 = work[_AB_S, i]
+        s1 = work[_AB_S + 1, i]
+        s2 = work[_AB_S + 2, i]
+        s3 = work[_AB_S + 3, i]
+        s4 = work[_AB_S + 4, i]
+        s5 = work[_AB_S + 5, i]
+        u0 = a00 * s0 + a01 * s1 + a02 * s2 + b00 * s3 + b01 * s4 + b02 * s5
+        u1 = a01 * s0 + a11 * s1 + a12 * s2 + b10 * s3 + b11 * s4 + b12 * s5
+        u2 = a02 * s0 + a12 * s1 + a22 * s2 + b20 * s3 + b21 * s4 + b22 * s5
+        u3 = b00 * s0 + b10 * s1 + b20 * s2 + c00 * s3 + c01 * s4 + c02 * s5
+        u4 = b01 * s0 + b11 * s1 + b21 * s2 + c01 * s3 + c11 * s4 + c12 * s5
+        u5 = b02 * s0 + b12 * s1 + b22 * s2 + c02 * s3 + c12 * s4 + c22 * s5
+        d = s0 * u0 + s1 * u1 + s2 * u2 + s3 * u3 + s4 * u4 + s5 * u5
+        if not d > 0.0:
+            return False
+        u = tau[i] - (s0 * pn0 + s1 * pn1 + s2 * pn2 + s3 * pf0 + s4 * pf1 + s5 * pf2)
+        rd = 1.0 / d
+        work[_AB_U, i] = u0
+        work[_AB_U + 1, i] = u1
+        work[_AB_U + 2, i] = u2
+        work[_AB_U + 3, i] = u3
+        work[_AB_U + 4, i] = u4
+        work[_AB_U + 5, i] = u5
+        work[_AB_RD, i] = rd
+        work[_AB_UU, i] = u
+        if i == 0:
+            break
+        # I^a = I^A - U U^T / D, p^a = p^A + U u / D
+        w0 = u0 * rd
+        w1 = u1 * rd
+        w2 = u2 * rd
+        w3 = u3 * rd
+        w4 = u4 * rd
+        w5 = u5 * rd
+        a00 -= w0 * u0
+        a11 -= w1 * u1
+        a22 -= w2 * u2
+        a01 -= w0 * u1
+        a02 -= w0 * u2
+        a12 -= w1 * u2
+        b00 -= w0 * u3
+        b01 -= w0 * u4
+        b02 -= w0 * u5
+        b10 -= w1 * u3
+        b11 -= w1 * u4
+        b12 -= w1 * u5
+        b20 -= w2 * u3
+        b21 -= w2 * u4
+        b22 -= w2 * u5
+        c00 -= w3 * u3
+        c11 -= w4 * u4
+        c22 -= w5 * u5
+        c01 -= w3 * u4
+        c02 -= w3 * u5
+        c12 -= w4 * u5
+        pn0 += w0 * u
+        pn1 += w1 * u
+        pn2 += w2 * u
+        pf0 += w3 * u
+        pf1 += w4 * u
+        pf2 += w5 * u
+    bx = 0.0
+    by = 0.0
+    bz = 0.0
+    cx = 0.0
+    cy = 0.0
+    cz = 0.0
+    for i in range(n):
+        ua = (
+            work[_AB_U, i] * bx + work[_AB_U + 1, i] * by + work[_AB_U + 2, i] * bz
+            + work[_AB_U + 3, i] * cx + work[_AB_U + 4, i] * cy + work[_AB_U + 5, i] * cz
+        )  # fmt: skip
+        qdd = (work[_AB_UU, i] - ua) * work[_AB_RD, i]
+        out[i] = qdd
+        bx += work[_AB_S, i] * qdd
+        by += work[_AB_S + 1, i] * qdd
+        bz += work[_AB_S + 2, i] * qdd
+        cx += work[_AB_S + 3, i] * qdd
+        cy += work[_AB_S + 4, i] * qdd
+        cz += work[_AB_S + 5, i] * qdd
     return True
 
 
