@@ -304,7 +304,7 @@ def _robot_urdf(name: str) -> Path:
 @pytest.mark.parametrize("name", ["panda", "ur5"])
 def test_shipped_robots_match_pinocchio_and_mujoco(name: str) -> None:
     """The vendored Panda and UR5 (real inertial data, ``<dynamics>`` damping that rigid-body
-    dynamics leave out, transmissions) on 200 random states, 50 of them fast."""
+    dynamics leave out, transmissions) on 1000 random states, 250 of them fast."""
     path = _robot_urdf(name)
     text = path.read_text()
     arm = SerialArm.from_urdf(path)
@@ -312,7 +312,7 @@ def test_shipped_robots_match_pinocchio_and_mujoco(name: str) -> None:
     assert arm.joint_names == info.names and arm.joint_types == info.types
     model = pin_model(text)
     rng = np.random.default_rng(5_150)
-    q, qd = random_states(rng, info.types, 200, fast=50)
+    q, qd = random_states(rng, info.types, 1000, fast=250)
     tau = rng.uniform(-50.0, 50.0, q.shape)
     qdd = rng.uniform(-20.0, 20.0, q.shape)
     assert _rel_err(arm.mass_matrix(q), pin_mass(model, q)) <= TOL_PIN
