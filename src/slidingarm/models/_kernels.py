@@ -478,13 +478,20 @@ def shifted_angles_into(base: np.ndarray, dq: np.ndarray, q: np.ndarray, work: n
     delta = 0.0
     for i in range(n):
         delta += dq[i]
-        d2 = delta * delta
-        sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
-        cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
-        c = base[0, i]
-        s = base[1, i]
-        work[0, i] = c + (c * cos_m1 - s * sin_d)
-        work[1, i] = s + (s * cos_m1 + c * sin_d)
+        work[0, i], work[1, i] = rotated(base[0, i], base[1, i], delta)
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+def rotated(c: float, s: float, delta: float) -> tuple[float, float]:
+    """:math:`(\\cos(\\phi + \\delta), \\sin(\\phi + \\delta))` from
+    :math:`c = \\cos\\phi, s = \\sin\\phi` for :math:`|\\delta| \\le 2^{-5}`:
+    :math:`c + (c(\\cos\\delta - 1) - s \\sin\\delta)` and likewise for the sine, with
+    :math:`\\sin\\delta` and :math:`\\cos\\delta - 1` from their Taylor series (exact to
+    rounding there)."""
+    d2 = delta * delta
+    sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
+    cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
+    return c + (c * cos_m1 - s * sin_d), s + (s * cos_m1 + c * sin_d)
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)

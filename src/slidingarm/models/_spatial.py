@@ -45,6 +45,8 @@ import math
 import numpy as np
 from numba import njit
 
+from slidingarm.models import _kernels as PK
+
 #: Rows of the parameter table (the physical ones; the kind's table adds the kernels' addresses
 #: in rows ``P_FN..``, see :mod:`slidingarm.models._dispatch`).
 ROWS = 26
@@ -120,35 +122,18 @@ def kinematics_into(p: np.ndarray, q: np.ndarray, work: np.ndarray) -> None:
         _place(p, i, c, s, q[i], work)
 
 
-# reciprocals for the Taylor series of kinematics_shifted_into
-_R6 = 1.0 / 6.0
-_R12 = 1.0 / 12.0
-_R20 = 1.0 / 20.0
-_R30 = 1.0 / 30.0
-_R42 = 1.0 / 42.0
-_R56 = 1.0 / 56.0
-
-
 @njit(**_OPTS)
 def kinematics_shifted_into(
     p: np.ndarray, base: np.ndarray, dq: np.ndarray, q: np.ndarray, work: np.ndarray
 ) -> None:
     """:func:`kinematics_into` at ``q = q_0 + dq`` given the cosines and sines of ``q_0`` in
-    ``base`` (2, n), for the small steps of RK4's stages: each angle is rotated,
-    :math:`\\cos(q_0 + \\delta) = \\cos q_0 + (\\cos q_0 (\\cos\\delta - 1) - \\sin q_0
-    \\sin\\delta)`, with :math:`\\sin\\delta` and :math:`\\cos\\delta - 1` from their Taylor
-    series, exact to rounding for :math:`|\\delta| \\le 2^{-5}` (the next terms are below
-    :math:`10^{-18}` relative); a larger step takes the sine and cosine of ``q``."""
+    ``base`` (2, n), for the small steps of RK4's stages: each angle with
+    :math:`|\\delta| \\le 2^{-5}` is rotated by :func:`slidingarm.models._kernels.rotated` (exact to
+    rounding there); a larger step takes the sine and cosine of ``q``."""
     for i in range(q.shape[0]):
         d = dq[i]
         if abs(d) <= 0.03125:
-            d2 = d * d
-            sin_d = d * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
-            cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
-            c0 = base[0, i]
-            s0 = base[1, i]
-            c = c0 + (c0 * cos_m1 - s0 * sin_d)
-            s = s0 + (s0 * cos_m1 + c0 * sin_d)
+            c, s = PK.rotated(base[0, i], base[1, i], d)
         else:
             c = math.cos(q[i])
             s = math.sin(q[i])
@@ -221,25 +206,12 @@ def _force_out(
 def _inertia_times(
     p: np.ndarray, i: int, wx: float, wy: float, wz: float, vx: float, vy: float, vz: float
 ) -> tuple[float, float, float, float, float, float]:
-    """The rigid-body inertia of body ``i`` times a motion: ``(I_o ω + h × v, m v - h × ω)``."""
-    m = p[P_MASS, i]
-    hx = p[P_H, i]
-    hy = p[P_H + 1, i]
-    hz = p[P_H + 2, i]
-    ixx = p[P_IO, i]
-    iyy = p[P_IO + 1, i]
-    izz = p[P_IO + 2, i]
-    ixy = p[P_IO + 3, i]
-    ixz = p[P_IO + 4, i]
-    iyz = p[P_IO + 5, i]
-    return (
-        ixx * wx + ixy * wy + ixz * wz + hy * vz - hz * vy,
-        ixy * wx + iyy * wy + iyz * wz + hz * vx - hx * vz,
-        ixz * wx + iyz * wy + izz * wz + hx * vy - hy * vx,
-        m * vx - (hy * wz - hz * wy),
-        m * vy - (hz * wx - hx * wz),
-        m * vz - (hx * wy - hy * wx),
-    )
+    """The rigid-body inertia of body ``i`` times a motion (:func:`_rigid_times`)."""
+    return _rigid_times(
+        p[P_MASS, i], p[P_H, i], p[P_H + 1, i], p[P_H + 2, i],
+        p[P_IO, i], p[P_IO + 1, i], p[P_IO + 2, i], p[P_IO + 3, i], p[P_IO + 4, i], p[P_IO + 5, i],
+        wx, wy, wz, vx, vy, vz,
+    )  # fmt: skip
 
 
 @njit(**_OPTS)
@@ -364,9 +336,7 @@ def crba_known(p: np.ndarray, n: int, out: np.ndarray, work: np.ndarray) -> None
     """Composite-rigid-body algorithm with the kinematics in ``work``: ``M`` into ``out``.
 
     Composite inertias :math:`I^c_i = I_i + X_{i+1}^T I^c_{i+1} X_{i+1}` (as ``m``, ``h``,
-    ``I_o``: carried to the parent as :math:`h' = R h + m r`,
-    :math:`I_o' = R I_o R^T - r h_R^T - h_R r^T - m r r^T + (2 h_R \\cdot r + m |r|^2) 1`, with
-    :math:`h_R = R h`), then :math:`M_{ii} = S_i^T I^c_i S_i` and
+    ``I_o``, carried to the parent by :func:`_carry_inertia`), then :math:`M_{ii} = S_i^T I^c_i S_i` and
     :math:`M_{ji} = S_j^T X_{j+1}^T \\cdots X_i^T I^c_i S_i` for :math:`j < i`.
     """
     c = W_IA
@@ -375,59 +345,15 @@ def crba_known(p: np.ndarray, n: int, out: np.ndarray, work: np.ndarray) -> None
             work[c + k, i] = p[P_MASS + k, i]
     for i in range(n - 1, 0, -1):
         m = work[c, i]
-        hx = work[c + 1, i]
-        hy = work[c + 2, i]
-        hz = work[c + 3, i]
-        r00 = work[0, i]
-        r01 = work[1, i]
-        r02 = work[2, i]
-        r10 = work[3, i]
-        r11 = work[4, i]
-        r12 = work[5, i]
-        r20 = work[6, i]
-        r21 = work[7, i]
-        r22 = work[8, i]
-        gx = r00 * hx + r01 * hy + r02 * hz
-        gy = r10 * hx + r11 * hy + r12 * hz
-        gz = r20 * hx + r21 * hy + r22 * hz
-        rx = work[W_POS, i]
-        ry = work[W_POS + 1, i]
-        rz = work[W_POS + 2, i]
-        # R I_o R^T, I_o symmetric from its six entries
-        i00 = work[c + 4, i]
-        i11 = work[c + 5, i]
-        i22 = work[c + 6, i]
-        i01 = work[c + 7, i]
-        i02 = work[c + 8, i]
-        i12 = work[c + 9, i]
-        # T = I_o R^T (rows of I_o dotted with rows of R)
-        t00 = i00 * r00 + i01 * r01 + i02 * r02
-        t01 = i00 * r10 + i01 * r11 + i02 * r12
-        t02 = i00 * r20 + i01 * r21 + i02 * r22
-        t10 = i01 * r00 + i11 * r01 + i12 * r02
-        t11 = i01 * r10 + i11 * r11 + i12 * r12
-        t12 = i01 * r20 + i11 * r21 + i12 * r22
-        t20 = i02 * r00 + i12 * r01 + i22 * r02
-        t21 = i02 * r10 + i12 * r11 + i22 * r12
-        t22 = i02 * r20 + i12 * r21 + i22 * r22
-        a00 = r00 * t00 + r01 * t10 + r02 * t20
-        a11 = r10 * t01 + r11 * t11 + r12 * t21
-        a22 = r20 * t02 + r21 * t12 + r22 * t22
-        a01 = r00 * t01 + r01 * t11 + r02 * t21
-        a02 = r00 * t02 + r01 * t12 + r02 * t22
-        a12 = r10 * t02 + r11 * t12 + r12 * t22
-        diag = 2.0 * (gx * rx + gy * ry + gz * rz) + m * (rx * rx + ry * ry + rz * rz)
-        j = i - 1
-        work[c, j] += m
-        work[c + 1, j] += gx + m * rx
-        work[c + 2, j] += gy + m * ry
-        work[c + 3, j] += gz + m * rz
-        work[c + 4, j] += a00 - 2.0 * rx * gx - m * rx * rx + diag
-        work[c + 5, j] += a11 - 2.0 * ry * gy - m * ry * ry + diag
-        work[c + 6, j] += a22 - 2.0 * rz * gz - m * rz * rz + diag
-        work[c + 7, j] += a01 - rx * gy - gx * ry - m * rx * ry
-        work[c + 8, j] += a02 - rx * gz - gx * rz - m * rx * rz
-        work[c + 9, j] += a12 - ry * gz - gy * rz - m * ry * rz
+        carried = _carry_inertia(
+            m, work[c + 1, i], work[c + 2, i], work[c + 3, i],
+            work[c + 4, i], work[c + 5, i], work[c + 6, i], work[c + 7, i], work[c + 8, i], work[c + 9, i],
+            work[0, i], work[1, i], work[2, i], work[3, i], work[4, i], work[5, i], work[6, i], work[7, i], work[8, i],
+            work[W_POS, i], work[W_POS + 1, i], work[W_POS + 2, i],
+        )  # fmt: skip
+        work[c, i - 1] += m
+        for k in range(9):
+            work[c + 1 + k, i - 1] += carried[k]
     for i in range(n):
         ax = p[P_AXIS, i]
         ay = p[P_AXIS + 1, i]
@@ -525,6 +451,69 @@ def _rigid_times(
         m * vx - (hy * wz - hz * wy),
         m * vy - (hz * wx - hx * wz),
         m * vz - (hx * wy - hy * wx),
+    )
+
+
+@njit(**_OPTS)
+def _carry_inertia(
+    m: float,
+    hx: float,
+    hy: float,
+    hz: float,
+    jxx: float,
+    jyy: float,
+    jzz: float,
+    jxy: float,
+    jxz: float,
+    jyz: float,
+    e00: float,
+    e01: float,
+    e02: float,
+    e10: float,
+    e11: float,
+    e12: float,
+    e20: float,
+    e21: float,
+    e22: float,
+    ox: float,
+    oy: float,
+    oz: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """A rigid inertia ``(m, h, I_o)`` of a frame carried to the frame in which the first is
+    at rotation ``E`` and origin ``o``: ``h' = E h + m o`` and
+    :math:`I_o' = E I_o E^T - o k^T - k o^T + 2 (o \\cdot k) 1` with
+    :math:`k = E h + m o / 2` (the parallel-axis theorem without a division by ``m``).
+    Returns ``h'`` and ``I_o'`` as ``xx, yy, zz, xy, xz, yz``."""
+    gx = e00 * hx + e01 * hy + e02 * hz
+    gy = e10 * hx + e11 * hy + e12 * hz
+    gz = e20 * hx + e21 * hy + e22 * hz
+    # T = E I_o, then E I_o E^T (upper triangle)
+    t00 = e00 * jxx + e01 * jxy + e02 * jxz
+    t01 = e00 * jxy + e01 * jyy + e02 * jyz
+    t02 = e00 * jxz + e01 * jyz + e02 * jzz
+    t10 = e10 * jxx + e11 * jxy + e12 * jxz
+    t11 = e10 * jxy + e11 * jyy + e12 * jyz
+    t12 = e10 * jxz + e11 * jyz + e12 * jzz
+    t20 = e20 * jxx + e21 * jxy + e22 * jxz
+    t21 = e20 * jxy + e21 * jyy + e22 * jyz
+    t22 = e20 * jxz + e21 * jyz + e22 * jzz
+    hm = 0.5 * m
+    kx = gx + hm * ox
+    ky = gy + hm * oy
+    kz = gz + hm * oz
+    pkx = ox * kx
+    pky = oy * ky
+    pkz = oz * kz
+    return (
+        gx + m * ox,
+        gy + m * oy,
+        gz + m * oz,
+        t00 * e00 + t01 * e01 + t02 * e02 + 2.0 * (pky + pkz),
+        t10 * e10 + t11 * e11 + t12 * e12 + 2.0 * (pkx + pkz),
+        t20 * e20 + t21 * e21 + t22 * e22 + 2.0 * (pkx + pky),
+        t00 * e10 + t01 * e11 + t02 * e12 - (ox * ky + kx * oy),
+        t00 * e20 + t01 * e21 + t02 * e22 - (ox * kz + kx * oz),
+        t10 * e20 + t11 * e21 + t12 * e22 - (oy * kz + ky * oz),
     )
 
 
@@ -669,45 +658,11 @@ def aba_known(
         cz += wx * q4 - wy * q3 + vx * q1 - vy * q0
         # the rigid inertia at the world origin
         m = p[P_MASS, i]
-        hx = p[P_H, i]
-        hy = p[P_H + 1, i]
-        hz = p[P_H + 2, i]
-        jxx = p[P_IO, i]
-        jyy = p[P_IO + 1, i]
-        jzz = p[P_IO + 2, i]
-        jxy = p[P_IO + 3, i]
-        jxz = p[P_IO + 4, i]
-        jyz = p[P_IO + 5, i]
-        gx = e00 * hx + e01 * hy + e02 * hz
-        gy = e10 * hx + e11 * hy + e12 * hz
-        gz = e20 * hx + e21 * hy + e22 * hz
-        # T = R I_o, then R I_o R^T (upper triangle)
-        t00 = e00 * jxx + e01 * jxy + e02 * jxz
-        t01 = e00 * jxy + e01 * jyy + e02 * jyz
-        t02 = e00 * jxz + e01 * jyz + e02 * jzz
-        t10 = e10 * jxx + e11 * jxy + e12 * jxz
-        t11 = e10 * jxy + e11 * jyy + e12 * jyz
-        t12 = e10 * jxz + e11 * jyz + e12 * jzz
-        t20 = e20 * jxx + e21 * jxy + e22 * jxz
-        t21 = e20 * jxy + e21 * jyy + e22 * jyz
-        t22 = e20 * jxz + e21 * jyz + e22 * jzz
-        # shifted by p: I -= p k^T + k p^T - 2 (p . k) 1 with k = R h + m p / 2
-        hm = 0.5 * m
-        kx = gx + hm * ox
-        ky = gy + hm * oy
-        kz = gz + hm * oz
-        pkx = ox * kx
-        pky = oy * ky
-        pkz = oz * kz
-        ixx = t00 * e00 + t01 * e01 + t02 * e02 + 2.0 * (pky + pkz)
-        iyy = t10 * e10 + t11 * e11 + t12 * e12 + 2.0 * (pkx + pkz)
-        izz = t20 * e20 + t21 * e21 + t22 * e22 + 2.0 * (pkx + pky)
-        ixy = t00 * e10 + t01 * e11 + t02 * e12 - (ox * ky + kx * oy)
-        ixz = t00 * e20 + t01 * e21 + t02 * e22 - (ox * kz + kx * oz)
-        iyz = t10 * e20 + t11 * e21 + t12 * e22 - (oy * kz + ky * oz)
-        hx = gx + m * ox
-        hy = gy + m * oy
-        hz = gz + m * oz
+        hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz = _carry_inertia(
+            m, p[P_H, i], p[P_H + 1, i], p[P_H + 2, i],
+            p[P_IO, i], p[P_IO + 1, i], p[P_IO + 2, i], p[P_IO + 3, i], p[P_IO + 4, i], p[P_IO + 5, i],
+            e00, e01, e02, e10, e11, e12, e20, e21, e22, ox, oy, oz,
+        )  # fmt: skip
         work[_AB_I, i] = m
         work[_AB_I + 1, i] = hx
         work[_AB_I + 2, i] = hy
@@ -1014,42 +969,56 @@ def coriolis_into(
     for i in range(n):
         # body i's inertia at the root's origin, in root coordinates
         m = p[P_MASS, i]
-        hb = (p[P_H, i], p[P_H + 1, i], p[P_H + 2, i])
-        hr = [0.0, 0.0, 0.0]
-        for a in range(3):
-            hr[a] = (
-                work[W_T + 3 * a, i] * hb[0]
-                + work[W_T + 3 * a + 1, i] * hb[1]
-                + work[W_T + 3 * a + 2, i] * hb[2]
-            )
-        io = p[P_IO : P_IO + 6, i]
-        ib = (
-            (io[0], io[3], io[4]),
-            (io[3], io[1], io[5]),
-            (io[4], io[5], io[2]),
-        )
-        r = (work[W_T + 9, i], work[W_T + 10, i], work[W_T + 11, i])
-        hw = (hr[0] + m * r[0], hr[1] + m * r[1], hr[2] + m * r[2])
-        diag = 2.0 * (hr[0] * r[0] + hr[1] * r[1] + hr[2] * r[2]) + m * (
-            r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
-        )
-        iw = np.zeros((3, 3))  # the one allocation: this kernel serves the numpy API only
-        for a in range(3):
-            for b in range(3):
-                s = 0.0
-                for k in range(3):
-                    for l_ in range(3):
-                        s += work[W_T + 3 * a + k, i] * ib[k][l_] * work[W_T + 3 * b + l_, i]
-                iw[a, b] = s - r[a] * hr[b] - hr[a] * r[b] - m * r[a] * r[b]
-            iw[a, a] += diag
+        wr = work[W_T : W_T + 12, i]
+        hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz = _carry_inertia(
+            m, p[P_H, i], p[P_H + 1, i], p[P_H + 2, i],
+            p[P_IO, i], p[P_IO + 1, i], p[P_IO + 2, i], p[P_IO + 3, i], p[P_IO + 4, i], p[P_IO + 5, i],
+            wr[0], wr[1], wr[2], wr[3], wr[4], wr[5], wr[6], wr[7], wr[8], wr[9], wr[10], wr[11],
+        )  # fmt: skip
         v = work[W_V : W_V + 6, i]
-        iv = _times(iw, hw, m, v[0], v[1], v[2], v[3], v[4], v[5])
+        iv = _rigid_times(
+            m, hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz, v[0], v[1], v[2], v[3], v[4], v[5]
+        )
         for lcol in range(i + 1):
             sl = work[W_U : W_U + 6, lcol]
             sd = work[W_A : W_A + 6, lcol]
             # y = I sdot + 1/2 (v x* I s - I (v x s) + s x* I v)
-            t1 = _times(iw, hw, m, sd[0], sd[1], sd[2], sd[3], sd[4], sd[5])
-            isl = _times(iw, hw, m, sl[0], sl[1], sl[2], sl[3], sl[4], sl[5])
+            t1 = _rigid_times(
+                m,
+                hx,
+                hy,
+                hz,
+                ixx,
+                iyy,
+                izz,
+                ixy,
+                ixz,
+                iyz,
+                sd[0],
+                sd[1],
+                sd[2],
+                sd[3],
+                sd[4],
+                sd[5],
+            )
+            isl = _rigid_times(
+                m,
+                hx,
+                hy,
+                hz,
+                ixx,
+                iyy,
+                izz,
+                ixy,
+                ixz,
+                iyz,
+                sl[0],
+                sl[1],
+                sl[2],
+                sl[3],
+                sl[4],
+                sl[5],
+            )
             t2 = _crossf(v[0], v[1], v[2], v[3], v[4], v[5], isl)
             vxs = (
                 v[1] * sl[2] - v[2] * sl[1],
@@ -1059,7 +1028,24 @@ def coriolis_into(
                 v[2] * sl[3] - v[0] * sl[5] + v[5] * sl[0] - v[3] * sl[2],
                 v[0] * sl[4] - v[1] * sl[3] + v[3] * sl[1] - v[4] * sl[0],
             )
-            t3 = _times(iw, hw, m, vxs[0], vxs[1], vxs[2], vxs[3], vxs[4], vxs[5])
+            t3 = _rigid_times(
+                m,
+                hx,
+                hy,
+                hz,
+                ixx,
+                iyy,
+                izz,
+                ixy,
+                ixz,
+                iyz,
+                vxs[0],
+                vxs[1],
+                vxs[2],
+                vxs[3],
+                vxs[4],
+                vxs[5],
+            )
             t4 = _crossf(sl[0], sl[1], sl[2], sl[3], sl[4], sl[5], iv)
             for k in range(i + 1):
                 sk = work[W_U : W_U + 6, k]
@@ -1067,29 +1053,6 @@ def coriolis_into(
                 for e in range(6):
                     acc += sk[e] * (t1[e] + 0.5 * (t2[e] - t3[e] + t4[e]))
                 out[k, lcol] += acc
-
-
-@njit(**_OPTS)
-def _times(
-    iw: np.ndarray,
-    h: tuple[float, float, float],
-    m: float,
-    wx: float,
-    wy: float,
-    wz: float,
-    vx: float,
-    vy: float,
-    vz: float,
-) -> tuple[float, float, float, float, float, float]:
-    """A rigid inertia ``(I_o = iw, h, m)`` times a motion."""
-    return (
-        iw[0, 0] * wx + iw[0, 1] * wy + iw[0, 2] * wz + h[1] * vz - h[2] * vy,
-        iw[1, 0] * wx + iw[1, 1] * wy + iw[1, 2] * wz + h[2] * vx - h[0] * vz,
-        iw[2, 0] * wx + iw[2, 1] * wy + iw[2, 2] * wz + h[0] * vy - h[1] * vx,
-        m * vx - (h[1] * wz - h[2] * wy),
-        m * vy - (h[2] * wx - h[0] * wz),
-        m * vz - (h[0] * wy - h[1] * wx),
-    )
 
 
 @njit(**_OPTS)
