@@ -272,9 +272,12 @@ EQUALITY = """<mujoco model="coupled"><worldbody>
         (lambda: MujocoPlant.from_urdf(BRANCH), "joint 'right' does not follow joint 'left'"),
         (
             lambda: MujocoPlant.from_urdf("no/such/arm.urdf"),
-            "URDF file 'no/such/arm.urdf' does not exist",
+            "cannot read URDF file 'no/such/arm.urdf': it does not exist",
         ),
-        (lambda: MujocoPlant.from_urdf("not a model"), "URDF file 'not a model' does not exist"),
+        (
+            lambda: MujocoPlant.from_urdf("not a model"),
+            "cannot read URDF file 'not a model': it does not exist",
+        ),
         (lambda: MujocoPlant.from_urdf("<robot name='x'"), "the URDF text is not valid XML"),
         (
             lambda: MujocoPlant.from_urdf(ARM.to_mjcf()),

@@ -730,6 +730,14 @@ def test_missing_file_is_refused(tmp_path: Path) -> None:
             SerialArm.from_urdf(source)
 
 
+def test_what_is_not_a_regular_file_is_refused(tmp_path: Path) -> None:
+    """A folder (and so a FIFO or a device such as /dev/zero) is refused before any read."""
+    with pytest.raises(ValueError, match="is not a regular file"):
+        SerialArm.from_urdf(tmp_path)
+    with pytest.raises(ValueError, match="is not a regular file"):
+        SerialArm.from_urdf("/dev/zero")
+
+
 def test_file_and_text_give_the_same_arm(tmp_path: Path) -> None:
     chain = CHAINS[16]
     path = tmp_path / "chain.urdf"

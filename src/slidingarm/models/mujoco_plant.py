@@ -19,6 +19,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from slidingarm._io import read_model_text
 from slidingarm._validate import ParameterTypeError, real
 from slidingarm.models.planar import MUJOCO_MIN_INERTIA
 from slidingarm.models.stepped import SteppedPlant
@@ -57,33 +58,6 @@ def _mujoco() -> Any:
 
 
 # ---------------------------------------------------------------------- reading the source
-def _read(source: object, fmt: Format) -> tuple[str, Path | None, str]:
-    """``(text, path, label)`` of ``source``: a path (``str`` or ``os.PathLike``, relative to
-    the working directory) or the model text itself (a string whose first non-blank character
-    is ``<``)."""
-    what = fmt.upper()
-    if isinstance(source, str) and source.lstrip().startswith("<"):
-        return source, None, f"the {what} text"
-    if not isinstance(source, str | os.PathLike):
-        raise ParameterTypeError(
-            f"source must be a path or {what} text (a str), got {type(source).__name__}"
-        )
-    path = Path(source)
-    label = f"{what} file {str(path)!r}"
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ValueError(
-            f"{label} does not exist (a relative path is read from the working directory "
-            f"{os.getcwd()!r}; text, not a path, must start with '<')"
-        ) from None
-    except UnicodeDecodeError as err:
-        raise ValueError(f"{label} is not UTF-8 text: {err}") from None
-    except OSError as err:
-        raise ValueError(f"{label} cannot be read: {err.strerror or err}") from None
-    return text, path.resolve(), label
-
-
 def _root(text: str, label: str, tag: str) -> Any:
     """The parsed root element of ``text``, checked to be ``<tag>``."""
     import xml.etree.ElementTree as ET
@@ -322,7 +296,7 @@ class MujocoPlant(SteppedPlant):
             joint, a massless moving link, a branched tree, a bad integrator name; the
             message names the file and the culprit.
         """
-        text, path, label = _read(source, "urdf")
+        text, path, label = read_model_text(source, "URDF")
         return cls(
             "urdf", text, path=path, label=label, gravity=gravity, limits=limits,
             integrator=integrator,
@@ -357,7 +331,7 @@ class MujocoPlant(SteppedPlant):
         ValueError
             As :meth:`from_urdf`, and for equality constraints, free or ball joints.
         """
-        text, path, label = _read(source, "mjcf")
+        text, path, label = read_model_text(source, "MJCF")
         return cls("mjcf", text, path=path, label=label, limits=limits, integrator=integrator)
 
     @classmethod

@@ -22,13 +22,13 @@ import math
 import os
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._io import read_model_text
 from slidingarm._validate import ParameterTypeError, _float, is_real, number_array, real
 from slidingarm.models import _dispatch as D
 from slidingarm.models import _spatial as SK
@@ -40,10 +40,6 @@ FloatArray = NDArray[np.float64]
 
 #: Joint kinds a chain may have (``fixed`` joints merge their child into the parent body).
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
-#: A URDF larger than this is refused before it is read (the largest robot descriptions are a
-#: few MB with meshes inline; ours carry none).
-MAX_URDF_BYTES = 64 * 2**20
-
 
 def _num(x: float) -> str:
     return repr(float(x))
@@ -81,32 +77,6 @@ def _quat(rot: FloatArray) -> tuple[float, float, float, float]:
     out[1 + j] = (rot[j, i] + rot[i, j]) / s
     out[1 + k] = (rot[k, i] + rot[i, k]) / s
     return (out[0], out[1], out[2], out[3])
-
-
-def _read_source(source: object) -> tuple[str, str]:
-    """The URDF text of ``source`` and how to name it in messages."""
-    if isinstance(source, str) and source.lstrip().startswith("<"):
-        return source, "the URDF text"
-    if not isinstance(source, str | os.PathLike):
-        raise ParameterTypeError(
-            f"source must be a URDF file path or URDF text, got {type(source).__name__}"
-        )
-    path = Path(source)
-    where = f"URDF file {str(path)!r}"
-    try:
-        st = path.stat()
-    except OSError as exc:
-        raise ValueError(f"cannot read {where}: {exc.strerror or exc}") from None
-    import stat
-
-    if not stat.S_ISREG(st.st_mode):
-        raise ValueError(f"{where} is not a regular file")
-    if st.st_size > MAX_URDF_BYTES:
-        raise ValueError(f"{where} is {st.st_size} bytes, more than a URDF can sensibly be")
-    try:
-        return path.read_text(encoding="utf-8"), where
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read {where}: {exc}") from None
 
 
 def _parse_joints(text: str, where: str) -> tuple[str, dict[str, dict[str, Any]]]:
@@ -377,7 +347,7 @@ class SerialArm(ArmModel):
         Joint ``<dynamics>`` (damping, friction) and position limits are not part of the
         dynamics; the limits are kept in :attr:`limits`.
         """
-        text, where = _read_source(source)
+        text, _, where = read_model_text(source, "URDF")
         robot, urdf_joints = _parse_joints(text, where)
         import pinocchio as pin
 
