@@ -880,3 +880,36 @@ def test_batches_of_serial_arms_equal_single_runs() -> None:
         np.testing.assert_array_equal(batch.q[b], one.q)
     assert batch.ok.all()
     assert not np.array_equal(batch.q[0], batch.q[2])  # the payload mattered
+
+
+def test_bad_arguments_name_the_problem() -> None:
+    """The serial arm's own inputs: the source's type, the tool, a payload's mass and link,
+    scale factors, frames and replace()'s keys."""
+    from slidingarm._validate import ParameterTypeError
+    from slidingarm.robots import load
+
+    ur5 = load("ur5")
+    with pytest.raises(ParameterTypeError, match="source must be a path or URDF text"):
+        SerialArm.from_urdf(12)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="tool 'hand' is not a link"):
+        SerialArm.from_urdf(PlanarArm.paper().to_urdf(), tool="hand")
+    with pytest.raises(ValueError, match="payload mass must be a finite value >= 0 kg"):
+        ur5.with_payload(-1.0)
+    with pytest.raises(ParameterTypeError, match="payload mass must be a number"):
+        ur5.with_payload("1")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="payload link 'gripper' is not a link of 'ur5'"):
+        ur5.with_payload(1.0, link="gripper")
+    with pytest.raises(ValueError, match="fixed to the root"):
+        ur5.with_payload(1.0, link="base_link")
+    with pytest.raises(ValueError, match="mass scale factors must be finite and > 0"):
+        ur5.scaled(mass=0.0)
+    with pytest.raises(ValueError, match=r"length scale must be one value or 6"):
+        ur5.scaled(length=[1.0, 2.0])
+    with pytest.raises(ValueError, match="frame 'hand' is not a link of 'ur5'"):
+        ur5.frame_pose(np.zeros(6), "hand")
+    with pytest.raises(TypeError, match=r"unknown parameter\(s\) \['masses'\]"):
+        ur5.replace(masses=1.0)
+    with pytest.raises(ValueError, match="gravity"):
+        ur5.replace(gravity=-1.0)
+    with pytest.raises(AttributeError, match="immutable"):
+        ur5.tool = "x"  # type: ignore[misc]
