@@ -448,7 +448,9 @@ def test_params_record_the_run() -> None:
     p = r.params
     assert p["seed"] == 123 and r.seed == 123
     assert p["plant"] == ARM.to_dict()
-    assert p["controller"] == c.to_dict()
+    # the automatic guard is recorded as resolved for the run's period
+    assert p["controller"] == c.for_period(DT).to_dict()
+    assert c.to_dict()["eps_e"] is None and p["controller"]["eps_e"] > 0
     ctrl = p["controller"]
     assert ctrl["controller"] == "ftsmc"
     assert (ctrl["alpha"], ctrl["beta"], ctrl["k"], ctrl["width"]) == (2.0, 2.0, 20.0, 0.05)

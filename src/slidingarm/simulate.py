@@ -466,6 +466,8 @@ def simulate_batch(
 
     t = time_grid(t_final, dt)
     nt = t.shape[0]
+    # parameters chosen from the control period (an automatic eps_e) are fixed now
+    ctrls = [c.for_period(float(dt)) for c in ctrls]
     qr, qdr, qddr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.evaluate(t))
     for name, a in (("q", qr), ("qd", qdr), ("qdd", qddr)):
         if a.shape != (nt, n) or not np.all(np.isfinite(a)):

@@ -97,8 +97,8 @@ def test_defaults_are_built_with_the_study_gains() -> None:
 #: with beta = 0, and TSMC as one with alpha = 0, in the compiled kernel).
 OWN_PARAMS: dict[str, dict[str, Any]] = {
     "pdsmc": {"lam": 2.0},
-    "tsmc": {"beta": 2.0, "gamma": 3 / 5, "eps_e": DEFAULT_EPS_E},
-    "ftsmc": {"alpha": 2.0, "beta": 2.0, "gamma": 3 / 5, "eps_e": DEFAULT_EPS_E},
+    "tsmc": {"beta": 2.0, "gamma": 3 / 5, "eps_e": None},  # None: chosen from dt by simulate
+    "ftsmc": {"alpha": 2.0, "beta": 2.0, "gamma": 3 / 5, "eps_e": None},
     "ntsmc": {"beta": 2.0, "gamma": 5 / 3},
 }
 COMMON = {"k": 20.0, "switching": "sign", "law": "model", "reaching": "classic"}
@@ -124,7 +124,7 @@ def test_repr_names_the_controllers_own_parameters() -> None:
         "reaching='classic')"
     )
     assert repr(TSMC(ARM, beta=2, p=5, q=3, k=1)) == (
-        "TSMC(beta=2.0, gamma=0.6, eps_e=1e-09, k=1.0, switching='sign', law='model', "
+        "TSMC(beta=2.0, gamma=0.6, eps_e=None, k=1.0, switching='sign', law='model', "
         "reaching='classic')"
     )
     assert repr(FTSMC(ARM, alpha=1, beta=2, gamma=0.5, k=1, eps_e=1e-6)) == (

@@ -97,6 +97,12 @@ class Controller(ABC):
         """Length of the state the law keeps between samples."""
         return self.handle.state_size
 
+    def for_period(self, dt: float) -> Controller:
+        """This law as it runs at control period ``dt`` (s). The simulator calls it when a run
+        starts, so that a parameter left to be chosen from the period (the sliding-mode
+        controllers' automatic ``eps_e``) is fixed then; the default returns ``self``."""
+        return self
+
     @abstractmethod
     def replace(self, **changes: Any) -> Controller:
         """A new controller with ``changes`` applied, validated as a new one is."""

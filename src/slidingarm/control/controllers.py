@@ -42,14 +42,18 @@ from slidingarm.models.base import ArmModel
 __all__ = [
     "CONTROLLERS",
     "FTSMC",
+    "MAX_AUTO_EPS_E",
+    "MIN_AUTO_EPS_E",
     "NTSMC",
     "PDSMC",
+    "SAMPLED_GAIN_LIMIT",
     "SWITCHING_LAWS",
     "TSMC",
     "Law",
     "Reaching",
     "SlidingModeController",
     "Switching",
+    "guard_for_period",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -131,6 +135,8 @@ class SlidingModeController(Controller):
                 "model must be an arm model (an ArmModel such as PlanarArm: the controller's "
                 f"nominal arm), got {type(model).__name__}"
             )
+        if not hasattr(self, "_eps_auto"):
+            self._eps_auto = False
         if not hasattr(self, "_kwargs"):
             # a bare SlidingModeController: its surface is a constructor argument too
             self._kwargs: dict[str, Any] = {"surface": surface}
@@ -235,7 +241,11 @@ class SlidingModeController(Controller):
     @property
     def gain_names(self) -> tuple[str, ...]:
         """The constructor's numeric parameters this controller uses (for :meth:`replace`)."""
-        names = [k for k, v in self._surface_params().items() if k != "surface" and _numeric(v)]
+        names = [
+            k
+            for k, v in self._surface_params().items()
+            if k != "surface" and (_numeric(v) or k == "eps_e")  # eps_e None: automatic
+        ]
         names.append("k")
         if self._width is not None:
             names.append("width")
@@ -248,6 +258,27 @@ class SlidingModeController(Controller):
         """Unit of ``s``: rad/s for :math:`s = \\dot e + \\dots`, rad for the nonsingular surface
         :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}`."""
         return "rad" if self._ci[CK.CI_SURFACE] == CK.SURFACE_NONSINGULAR else "rad/s"
+
+    def for_period(self, dt: float) -> SlidingModeController:
+        """This controller as it runs at control period ``dt`` (s): with an automatic guard
+        (``eps_e=None``, the default of :class:`TSMC` and :class:`FTSMC`) a copy whose
+        ``eps_e`` is :func:`guard_for_period` of its terminal gains and ``dt``; otherwise
+        ``self``, unchanged (a guard the user set is kept). :func:`slidingarm.simulate` and
+        :func:`slidingarm.simulate_batch` call it when the run starts."""
+        if not self._eps_auto:
+            return self
+        ft = cast(FastTerminalSurface, self._surface)
+        return self.replace(eps_e=guard_for_period(ft.beta, ft.gamma, dt))
+
+    @property
+    def eps_e(self) -> float | None:
+        r"""The singularity guard :math:`\varepsilon_e` (rad) of a terminal surface: ``None``
+        while it is automatic and not yet resolved for a control period (:meth:`for_period`);
+        ``None`` too for a surface without a singular term."""
+        surface = self._surface
+        if self._eps_auto or not isinstance(surface, FastTerminalSurface):
+            return None
+        return float(surface.eps_e) if np.any(surface.beta > 0) else None
 
     def replace(self, **changes: Any) -> SlidingModeController:
         """A new controller of the same class with ``changes`` to the constructor's arguments
@@ -478,6 +509,59 @@ class SlidingModeController(Controller):
         return self._surface.value(e, ed)
 
 
+#: The largest sampled terminal gain :math:`\beta\gamma\varepsilon_e^{\gamma-1}T_s` the
+#: automatic guard allows (:func:`guard_for_period`).
+SAMPLED_GAIN_LIMIT = 0.5
+
+#: The automatic guard is never below this (rad): a finer control period would otherwise ask
+#: for a guard far below anything float64 errors or the metrics resolve.
+MIN_AUTO_EPS_E = DEFAULT_EPS_E
+
+#: ... nor above this (rad): beyond it the terminal term is linear over any angle an arm has.
+MAX_AUTO_EPS_E = 10.0
+
+
+def guard_for_period(beta: ArrayLike, gamma: float, dt: float) -> float:
+    r"""The automatic singularity guard :math:`\varepsilon_e` (rad) for control period ``dt``.
+
+    The terminal term's gain :math:`\beta\gamma|e|^{\gamma-1}` grows without bound as
+    :math:`e \to 0`; sampled every :math:`T_s` it makes the torque alternate at the sample rate
+    (even under tanh) once :math:`\beta\gamma|e|^{\gamma-1}T_s` approaches 1. Evaluating
+    :math:`|e|^{\gamma-1}` at :math:`\max(|e|, \varepsilon_e)` with
+
+    .. math::
+
+        \varepsilon_e = (2\beta_{max}\gamma T_s)^{1/(1-\gamma)}
+
+    caps the sampled gain at :data:`SAMPLED_GAIN_LIMIT` = 0.5 (:math:`\beta_{max}`: the largest
+    per-joint :math:`\beta`); this is the rule of the shipped study (``eps_e = 5e-8`` rad for
+    :math:`\beta = 2, \gamma = 3/5, T_s = 0.5` ms; see ``docs/theory.md``). The value is kept
+    within [:data:`MIN_AUTO_EPS_E`, :data:`MAX_AUTO_EPS_E`], where the cap still holds or the
+    term is linear anyway. A non-terminal exponent :math:`\gamma \ge 1` has no singularity:
+    the guard is :data:`MIN_AUTO_EPS_E`.
+
+    Raises
+    ------
+    ValueError
+        If ``dt`` is not a finite period > 0.
+    """
+    step = float(dt)
+    if not (math.isfinite(step) and step > 0):
+        raise ValueError(f"dt must be a finite control period > 0 s, got {dt!r}")
+    if gamma >= 1.0:
+        return MIN_AUTO_EPS_E
+    b = float(np.max(np.asarray(beta, dtype=np.float64)))
+    log_eps = math.log(2.0 * b * gamma * step) / (1.0 - gamma)
+    eps = math.exp(min(log_eps, math.log(MAX_AUTO_EPS_E)))
+    return min(max(eps, MIN_AUTO_EPS_E), MAX_AUTO_EPS_E)
+
+
+def _guard(eps_e: float | None) -> float:
+    """The guard the surface is built with: the user's, or (automatic, ``None``) the floor
+    :data:`DEFAULT_EPS_E` until :meth:`SlidingModeController.for_period` resolves it."""
+    return DEFAULT_EPS_E if eps_e is None else eps_e
+
+
 def _numeric(v: object) -> bool:
     return isinstance(v, float | int | list) and not isinstance(v, bool)
 
@@ -536,11 +620,14 @@ class PDSMC(SlidingModeController):
         return {"lam": _tolist(self._lam)}
 
 
-def _terminal_params(surface: Surface, allow_nonterminal: bool, *, alpha: bool) -> dict[str, Any]:
-    """``to_dict`` entries of TSMC (``alpha=False``) and FTSMC: their own parameter names."""
+def _terminal_params(
+    surface: Surface, allow_nonterminal: bool, *, alpha: bool, auto: bool
+) -> dict[str, Any]:
+    """``to_dict`` entries of TSMC (``alpha=False``) and FTSMC: their own parameter names
+    (``eps_e`` is None while the guard is automatic and unresolved)."""
     ft = cast(FastTerminalSurface, surface)
     d: dict[str, Any] = {"alpha": _tolist(ft.alpha)} if alpha else {}
-    d |= {"beta": _tolist(ft.beta), "gamma": ft.gamma, "eps_e": ft.eps_e}
+    d |= {"beta": _tolist(ft.beta), "gamma": ft.gamma, "eps_e": None if auto else ft.eps_e}
     if allow_nonterminal:
         d["allow_nonterminal"] = True
     return d
@@ -549,8 +636,14 @@ def _terminal_params(surface: Surface, allow_nonterminal: bool, *, alpha: bool) 
 class TSMC(SlidingModeController):
     """Terminal SMC: :math:`s = \\dot e + \\beta\\,\\mathrm{sig}(e)^\\gamma`, :math:`0 < \\gamma < 1`.
 
-    Give ``gamma`` or odd integers ``p > q`` (:math:`\\gamma = q/p`). ``eps_e`` guards the
-    singular term :math:`|e|^{\\gamma-1}`.
+    Give ``gamma`` or odd integers ``p > q`` (:math:`\\gamma = q/p`). ``eps_e`` (rad) guards
+    the singular term: :math:`|e|^{\\gamma-1}` is evaluated at :math:`\\max(|e|, \\varepsilon_e)`.
+    Left at ``None`` (the default) it is chosen from the control period :math:`T_s` when the
+    simulation starts, :math:`\\varepsilon_e = (2\\beta\\gamma T_s)^{1/(1-\\gamma)}`
+    (:func:`guard_for_period`, :meth:`for_period`; ``docs/theory.md``, the guard rule), so that
+    the sampled terminal gain :math:`\\beta\\gamma\\varepsilon_e^{\\gamma-1}T_s` stays at 0.5;
+    a value you give is kept. Called from Python before a simulation has resolved it, the
+    controller uses :data:`~slidingarm.control.surfaces.DEFAULT_EPS_E` = 1e-9 rad.
     """
 
     name = "tsmc"
@@ -572,15 +665,16 @@ class TSMC(SlidingModeController):
         law: Law = "model",
         reaching: Reaching = "classic",
         k2: ArrayLike | None = None,
-        eps_e: float = DEFAULT_EPS_E,
+        eps_e: float | None = None,
         allow_nonterminal: bool = False,
     ) -> None:
         self._kwargs = {
             "beta": beta, "gamma": gamma, "p": p, "q": q, "eps_e": eps_e,
             "allow_nonterminal": allow_nonterminal,
         }  # fmt: skip
+        self._eps_auto = eps_e is None
         surface = TerminalSurface(
-            beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
+            beta, gamma, p=p, q=q, eps_e=_guard(eps_e), allow_nonterminal=allow_nonterminal
         )
         self._allow_nonterminal = bool(allow_nonterminal)
         super().__init__(
@@ -588,7 +682,9 @@ class TSMC(SlidingModeController):
         )
 
     def _surface_params(self) -> dict[str, Any]:
-        return _terminal_params(self._surface, self._allow_nonterminal, alpha=False)
+        return _terminal_params(
+            self._surface, self._allow_nonterminal, alpha=False, auto=self._eps_auto
+        )
 
 
 class FTSMC(SlidingModeController):
@@ -596,6 +692,9 @@ class FTSMC(SlidingModeController):
 
     Give ``gamma`` in (0, 1) or odd integers ``p > q`` (:math:`\\gamma = q/p`);
     ``allow_nonterminal=True`` admits the paper's :math:`\\gamma > 1` only to measure it.
+    ``eps_e`` (rad) guards the singular term as in :class:`TSMC`: ``None`` (the default) means
+    :math:`\\varepsilon_e = (2\\beta\\gamma T_s)^{1/(1-\\gamma)}` for the control period
+    :math:`T_s` of the run (:func:`guard_for_period`); a value you give is kept.
     """
 
     name = "ftsmc"
@@ -619,15 +718,16 @@ class FTSMC(SlidingModeController):
         law: Law = "model",
         reaching: Reaching = "classic",
         k2: ArrayLike | None = None,
-        eps_e: float = DEFAULT_EPS_E,
+        eps_e: float | None = None,
         allow_nonterminal: bool = False,
     ) -> None:
         self._kwargs = {
             "alpha": alpha, "beta": beta, "gamma": gamma, "p": p, "q": q, "eps_e": eps_e,
             "allow_nonterminal": allow_nonterminal,
         }  # fmt: skip
+        self._eps_auto = eps_e is None
         surface = FastTerminal(
-            alpha, beta, gamma, p=p, q=q, eps_e=eps_e, allow_nonterminal=allow_nonterminal
+            alpha, beta, gamma, p=p, q=q, eps_e=_guard(eps_e), allow_nonterminal=allow_nonterminal
         )
         self._allow_nonterminal = bool(allow_nonterminal)
         super().__init__(
@@ -635,7 +735,9 @@ class FTSMC(SlidingModeController):
         )
 
     def _surface_params(self) -> dict[str, Any]:
-        return _terminal_params(self._surface, self._allow_nonterminal, alpha=True)
+        return _terminal_params(
+            self._surface, self._allow_nonterminal, alpha=True, auto=self._eps_auto
+        )
 
 
 class NTSMC(SlidingModeController):
