@@ -22,8 +22,14 @@ __all__ = ["ConfigError", "from_pydantic", "literal_values", "tags"]
 class ConfigError(ValueError):
     """An invalid scenario: one line naming the file, the key path and what is allowed.
 
+    When a file has several errors, the message lists them all in one line,
+    ``"3 errors: (1) <file>: <key>: <reason>; (2) ...; (3) ..."``, and :attr:`errors` holds each
+    as its own :class:`ConfigError`; ``file``, ``path`` and ``reason`` are the first one's.
+
     Attributes
     ----------
+    errors : tuple of ConfigError
+        Every error found, this one first (just ``(self,)`` for a single error).
     file : str or None
         The file (or ``None`` for a scenario given as a mapping).
     path : str
@@ -32,11 +38,35 @@ class ConfigError(ValueError):
         What is wrong and what is allowed.
     """
 
-    def __init__(self, reason: str, *, file: str | Path | None = None, path: str = "") -> None:
+    def __init__(
+        self,
+        reason: str,
+        *,
+        file: str | Path | None = None,
+        path: str = "",
+        also: Sequence[ConfigError] = (),
+    ) -> None:
         self.file = None if file is None else str(file)
         self.path = path
         self.reason = " ".join(str(reason).split())
-        super().__init__(": ".join(p for p in (self.file, self.path, self.reason) if p))
+        first = ": ".join(p for p in (self.file, self.path, self.reason) if p)
+        self.errors: tuple[ConfigError, ...] = (self, *also)
+        if also:
+            lines = [first, *(str(e) for e in also)]
+            listed = "; ".join(f"({i}) {line}" for i, line in enumerate(lines, start=1))
+            super().__init__(f"{len(self.errors)} errors: {listed}")
+        else:
+            super().__init__(first)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # rebuilt from its parts (the default would pass the message as the reason)
+        return (_rebuild, (self.reason, self.file, self.path, self.errors[1:]))
+
+
+def _rebuild(
+    reason: str, file: str | None, path: str, also: Sequence[ConfigError]
+) -> ConfigError:
+    return ConfigError(reason, file=file, path=path, also=also)
 
 
 def _unwrap(tp: Any) -> Any:
@@ -117,15 +147,26 @@ def from_pydantic(
     source: Path | None,
     origin: Mapping[tuple[Any, ...], str],
 ) -> ConfigError:
-    """The first error of ``exc`` (validating ``root``) as one :class:`ConfigError` line; an
-    unknown key first, since a misspelt key also makes the key it meant "missing".
+    """Every error of ``exc`` (validating ``root``) as one :class:`ConfigError` that lists them
+    all (:attr:`ConfigError.errors`); unknown keys first, since a misspelt key also makes the
+    key it meant "missing".
 
     ``origin`` maps key paths to the file that set them (``extends``), so that an error is
     reported against the file that holds the bad value.
     """
     # an unknown key first: a misspelt key also makes the key it meant "missing"
     errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
-    err = errors[0]
+    found = [_one(err, root, source, origin) for err in errors]
+    return ConfigError(found[0].reason, file=found[0].file, path=found[0].path, also=found[1:])
+
+
+def _one(
+    err: Any,
+    root: type[BaseModel],
+    source: Path | None,
+    origin: Mapping[tuple[Any, ...], str],
+) -> ConfigError:
+    """One pydantic error as a :class:`ConfigError`."""
     loc = tuple(err["loc"])
     etype = err["type"]
     path, holder, _ = _locate(loc, root)
@@ -164,9 +205,6 @@ def from_pydantic(
             msg = msg[0].lower() + msg[1:] if msg else msg
         shown = is_real(value) or isinstance(value, str | bool)
         reason = msg if ("got" in msg or not shown) else f"{msg}, got {value!r}"
-    more = len(errors) - 1
-    if more:
-        reason += f" (and {more} more error{'s' if more > 1 else ''})"
     file: str | Path | None = source
     for n in range(len(loc), 0, -1):
         if loc[:n] in origin:

@@ -1,4 +1,9 @@
-"""Reading scenario files: TOML, ``extends`` (merge onto a base file), validation."""
+"""Reading scenario files: TOML, ``extends`` (merge onto a base file), validation.
+
+``extends`` names a file relative to the extending one, or a shipped scenario by name
+(``extends = "tanh"``). The merged scenario keeps every key of its base except ``name`` and
+``description``, which belong to the extending file (its name defaults to its file's stem).
+"""
 
 from __future__ import annotations
 
@@ -90,15 +95,48 @@ def _resolve(
         raise ConfigError(
             f"must be a file name (a string), got {base_name!r}", file=path, path="extends"
         )
+    base_path = _base_path(base_name, path)
+    base, origin = _resolve(base_path, (*seen, real))
+    for key in _OWN_KEYS:
+        # the scenario is the extending file's: its name and description are its own
+        base.pop(key, None)
+        origin.pop((key,), None)
+    return _merge(base, data, origin, str(path)), origin
+
+
+#: Keys a file never inherits from the file it extends: they say which scenario it is.
+_OWN_KEYS: tuple[str, ...] = ("name", "description")
+
+
+def _base_path(base_name: str, path: Path) -> Path:
+    """The file ``extends = base_name`` of ``path`` names: a file relative to ``path`` (or
+    absolute), else the name of a shipped scenario (``"tanh"``, as ``slidingarm run tanh``)."""
     base_path = Path(base_name)
     if not base_path.is_absolute():
         base_path = path.parent / base_path
-    if not base_path.is_file():
-        raise ConfigError(
-            f"base file {base_name!r} not found (looked for {base_path})", file=path, path="extends"
-        )
-    base, origin = _resolve(base_path, (*seen, real))
-    return _merge(base, data, origin, str(path)), origin
+    if base_path.is_file():
+        return base_path
+    shipped = _shipped_file(base_name)
+    if shipped is not None:
+        return shipped
+    from slidingarm.study.shipped import SHIPPED
+
+    raise ConfigError(
+        f"base file {base_name!r} not found (looked for {base_path}; nor is it the name of a "
+        f"shipped scenario: {', '.join(SHIPPED)})",
+        file=path,
+        path="extends",
+    )
+
+
+def _shipped_file(name: str) -> Path | None:
+    """The file of shipped scenario ``name`` (or of the study's base, ``paper``), if it is one."""
+    from slidingarm.study.shipped import BASE, SHIPPED, scenarios_dir
+
+    stem = name[: -len(".toml")] if name.endswith(".toml") else name
+    if stem in (*SHIPPED, BASE) and "/" not in stem and "\\" not in stem:
+        return scenarios_dir() / f"{stem}.toml"
+    return None
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -98,8 +98,9 @@ class Scenario(_Strict):
 
     extends: str | None = Field(
         default=None,
-        description="Base scenario file (relative to this one), merged under this file: tables "
-        "merge key by key, values and arrays of tables replace.",
+        description="Base scenario file (relative to this one) or the name of a shipped "
+        "scenario ('tanh'), merged under this file: tables merge key by key, values and arrays "
+        "of tables replace; name and description are not inherited.",
     )
     name: str | None = Field(
         default=None, pattern=_NAME_PATTERN, description="Scenario name (default: the file's stem)."
