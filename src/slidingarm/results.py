@@ -22,8 +22,12 @@ from slidingarm._io import atomic_write_bytes
 if TYPE_CHECKING:
     import pandas as pd
     import xarray as xr
+    from matplotlib.figure import Figure
 
-__all__ = ["SIGNALS", "BatchResult", "SimResult"]
+__all__ = ["MAX_PLOTTED_RUNS", "SIGNALS", "BatchResult", "SimResult", "run_name"]
+
+#: The most runs :meth:`BatchResult.plot` draws without being told which.
+MAX_PLOTTED_RUNS = 8
 
 FloatArray = NDArray[np.float64]
 
@@ -55,6 +59,33 @@ def _units(name: str, default: str, params: Sequence[Mapping[str, Any]]) -> str:
         return default
     units = sorted({sliding_unit(p) for p in params})
     return units[0] if len(units) == 1 else " or ".join(units)
+
+
+def run_name(params: Mapping[str, Any]) -> str:
+    """The name a run is drawn and listed under: its controller's name (``"ftsmc"``, which
+    picks the controller's fixed style in the figures), else its label, else ``"run"``."""
+    ctrl = params.get("controller")
+    if isinstance(ctrl, Mapping) and isinstance(ctrl.get("controller"), str):
+        return str(ctrl["controller"])
+    label = params.get("label")
+    return label if isinstance(label, str) and label else "run"
+
+
+def _label(params: Mapping[str, Any]) -> str:
+    label = params.get("label")
+    return label if isinstance(label, str) and label else run_name(params)
+
+
+def _html_table(caption: str, rows: Sequence[tuple[str, str]]) -> str:
+    """A small two-column HTML table (escaped), for notebooks."""
+    from html import escape
+
+    body = "".join(
+        f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>"
+        f"{escape(v)}</td></tr>"
+        for k, v in rows
+    )
+    return f"<table><caption style='text-align:left'><b>{escape(caption)}</b></caption>{body}</table>"
 
 
 def _freeze_signals(obj: SimResult | BatchResult, *, batch: bool) -> None:
@@ -126,6 +157,37 @@ class SimResult:
 
     def __post_init__(self) -> None:
         _freeze_signals(self, batch=False)
+
+    # ------------------------------------------------------------------ display
+    def __repr__(self) -> str:
+        """One line: controller, joints, samples, period, duration and status (no arrays)."""
+        status = self.status if self.success else f"{self.status}: {self.message}"
+        seed = "" if self.seed is None else f", seed={self.seed}"
+        return (
+            f"SimResult({_label(self.params)}, {self.n} joints, {self.t.shape[0]} samples of "
+            f"{self.dt:g} s over {float(self.t[-1] - self.t[0]):g} s{seed}, {status})"
+        )
+
+    def _repr_html_(self) -> str:
+        """A short table for notebooks: what ran and how it ended (no arrays)."""
+        final = np.abs(self.e[-1])
+        rows = [
+            ("controller", _label(self.params)),
+            ("joints", str(self.n)),
+            ("samples", f"{self.t.shape[0]} of {self.dt:g} s over {float(self.t[-1]):g} s"),
+            ("status", self.status + (f" ({self.message})" if self.message else "")),
+            ("seed", "none" if self.seed is None else str(self.seed)),
+            ("final |e| (rad)", ", ".join(f"{v:.3g}" for v in final)),
+        ]
+        return _html_table("SimResult", rows)
+
+    def plot(self, **kwargs: Any) -> Figure:
+        """The standard figure of this run: joint tracking against the reference
+        (:func:`slidingarm.plotting.plot_tracking`, to which ``kwargs`` go); matplotlib is
+        imported only here."""
+        from slidingarm.plotting import plot_tracking
+
+        return plot_tracking(self, **kwargs)
 
     @property
     def success(self) -> bool:
@@ -395,6 +457,51 @@ class BatchResult:
             f"BatchResult({nb} runs, record={self.record!r}, {nb - failed} ok, {failed} failed, "
             f"{self.t.shape[0]} samples)"
         )
+
+    def _repr_html_(self) -> str:
+        """A short table for notebooks: runs, what was recorded, how many failed and why."""
+        nb = len(self)
+        failed = np.flatnonzero(~self.ok)
+        labels = sorted({_label(p) for p in self.params}) if self.params else []
+        rows = [
+            ("runs", str(nb)),
+            ("controllers", ", ".join(labels) or "-"),
+            ("record", self.record),
+            ("samples", f"{self.t.shape[0]} recorded"),
+            ("ok", f"{nb - failed.size} of {nb}"),
+        ]
+        if failed.size:
+            b = int(failed[0])
+            rows.append(("first failure", f"run {b}: {self.message[b]}"))
+        return _html_table("BatchResult", rows)
+
+    def plot(self, runs: Sequence[int] | None = None, **kwargs: Any) -> Figure:
+        """Joint tracking of the chosen ``runs`` (default: every run, at most
+        :data:`MAX_PLOTTED_RUNS`), keyed ``"run b"``
+        (:func:`slidingarm.plotting.plot_tracking`, to which ``kwargs`` go).
+
+        Raises
+        ------
+        ValueError
+            With ``record="metrics"`` (no traces), for a run index out of range, or for more
+            than :data:`MAX_PLOTTED_RUNS` runs when ``runs`` is not given.
+        """
+        from slidingarm.plotting import plot_tracking
+
+        self._traces()
+        nb = len(self)
+        if runs is None:
+            if nb > MAX_PLOTTED_RUNS:
+                raise ValueError(
+                    f"this batch has {nb} runs; choose at most {MAX_PLOTTED_RUNS} to draw with "
+                    "runs=[...]"
+                )
+            runs = range(nb)
+        chosen = [int(b) for b in runs]
+        bad = [b for b in chosen if not 0 <= b < nb]
+        if bad or not chosen:
+            raise ValueError(f"runs must be run indices in 0..{nb - 1}, got {list(runs)}")
+        return plot_tracking({f"run {b}": self[b] for b in chosen}, **kwargs)
 
     # ------------------------------------------------------------------ status
     @property

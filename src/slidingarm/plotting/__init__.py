@@ -1,8 +1,8 @@
 """Figures of slidingarm runs (SPEC §7): pure drawing, no computation, no pyplot, no ``show()``.
 
-Every ``plot_*`` function takes ``{controller name: SimResult}``, accepts an optional ``ax=`` and
-returns the :class:`~matplotlib.figure.Figure`; :func:`plot_tool_path` draws tool paths given
-as (T, 3) arrays; :func:`scenario_figures` makes the seven figures of one scenario of the study
+Every ``plot_*`` function takes one ``SimResult`` or ``{controller name: SimResult}``, accepts an
+optional ``ax=`` and returns the :class:`~matplotlib.figure.Figure`; :func:`plot_tool_path` draws
+one tool path or several given as (T, 3) arrays; :func:`scenario_figures` makes the seven figures of one scenario of the study
 (and the tool path of a serial arm's) and :func:`save_figure` writes one as PNG and SVG.
 """
 
@@ -12,6 +12,7 @@ from slidingarm.plotting.figures import (
     FIGURES,
     MAX_POINTS,
     TOOL_FIGURES,
+    as_mapping,
     plot_error,
     plot_sliding,
     plot_steady_state,
@@ -29,6 +30,7 @@ __all__ = [
     "REFERENCE_STYLE",
     "TOOL_FIGURES",
     "LineStyle",
+    "as_mapping",
     "controller_style",
     "plot_error",
     "plot_sliding",

@@ -1,7 +1,8 @@
 """The study's figures (SPEC §7, paper Figs. 3–22): one function per signal, any number of joints.
 
-Every joint ``plot_*`` function takes the runs to compare as a mapping ``{controller name:
-SimResult}`` (drawn in the mapping's order, each controller in its own fixed style), draws one
+Every joint ``plot_*`` function takes one :class:`~slidingarm.results.SimResult` or the runs to
+compare as a mapping ``{controller name: SimResult}`` (drawn in the mapping's order, each
+controller in its own fixed style; a single run is named by its controller), draws one
 panel per joint over a shared time axis (stacked, or in a grid of two columns beyond three
 joints), and returns the :class:`~matplotlib.figure.Figure`. :func:`plot_tool_path` draws tool
 paths given as arrays (the caller computes them from its arm's kinematics). With
@@ -41,11 +42,12 @@ from slidingarm.plotting._style import (
     smooth,
     subscript,
 )
-from slidingarm.results import SimResult, sliding_unit
+from slidingarm.results import SimResult, run_name, sliding_unit
 
 __all__ = [
     "FIGURES",
     "TOOL_FIGURES",
+    "as_mapping",
     "plot_error",
     "plot_sliding",
     "plot_steady_state",
@@ -57,7 +59,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-Results = Mapping[str, SimResult]
+#: What every ``plot_*`` function takes: one run, or runs keyed by controller name.
+Results = SimResult | Mapping[str, SimResult]
 AxesArg = Axes | Sequence[Axes] | None
 
 #: The figures of one scenario, in report order (keys of :func:`scenario_figures`).
@@ -92,9 +95,25 @@ SMOOTH_SECONDS = 5e-3
 
 
 # ---------------------------------------------------------------------------- helpers
+def as_mapping(results: Results) -> Mapping[str, SimResult]:
+    """``results`` as ``{name: SimResult}``: a single run is keyed by its controller's name
+    (:func:`slidingarm.results.run_name`), so it keeps that controller's style."""
+    if isinstance(results, SimResult):
+        return {run_name(results.params): results}
+    if not isinstance(results, Mapping):
+        raise TypeError(
+            "results must be a SimResult or a mapping {name: SimResult}, got "
+            f"{type(results).__name__}"
+        )
+    for name, res in results.items():
+        if not isinstance(res, SimResult):
+            raise TypeError(f"results[{name!r}] must be a SimResult, got {type(res).__name__}")
+    return results
+
+
 def _items(results: Results) -> tuple[list[tuple[str, SimResult]], int]:
     """The runs in order and their common number of joints."""
-    items = list(results.items())
+    items = list(as_mapping(results).items())
     if not items:
         raise ValueError("results is empty: pass at least one {controller name: SimResult}")
     n = items[0][1].n
@@ -271,8 +290,8 @@ def plot_tracking(
 
     Parameters
     ----------
-    results : Mapping[str, SimResult]
-        Runs keyed by controller name, drawn in this order.
+    results : SimResult or Mapping[str, SimResult]
+        One run, or runs keyed by controller name, drawn in this order.
     ax : Axes, sequence of Axes or None
         Where to draw: one Axes per joint drawn (a single Axes with ``joints=[j]``); ``None``
         makes a new figure.
@@ -372,7 +391,7 @@ def plot_sliding(
     """
     if scale not in ("symlog", "linear"):
         raise ValueError(f"scale must be 'symlog' or 'linear', got {scale!r}")
-    units = {_sliding_unit(res) for res in results.values()}
+    units = {_sliding_unit(res) for res in as_mapping(results).values()}
     unit = units.pop() if len(units) == 1 else ""
     shown = unit or "rad/s; NTSMC: rad"
     return _joint_plot(
@@ -465,7 +484,7 @@ def _thin(path: FloatArray, max_points: int) -> FloatArray:
 
 
 def plot_tool_path(
-    paths: Mapping[str, ArrayLike],
+    paths: ArrayLike | Mapping[str, ArrayLike],
     reference: ArrayLike | None = None,
     *,
     ax: AxesArg = None,
@@ -476,9 +495,9 @@ def plot_tool_path(
 
     Parameters
     ----------
-    paths : Mapping[str, array_like, shape (T, 3)]
-        Each controller's tool position over its run (m), keyed by controller name and drawn
-        in this order, each in the controller's style; for example
+    paths : array_like (T, 3) or Mapping[str, array_like, shape (T, 3)]
+        One tool path, or each controller's tool position over its run (m), keyed by
+        controller name and drawn in this order, each in the controller's style; for example
         ``{name: arm.tool_position(result.q)}``.
     reference : array_like, shape (T, 3), optional
         The desired tool path (m), e.g. ``arm.tool_position(result.q_ref)``: dashed black,
@@ -492,6 +511,8 @@ def plot_tool_path(
 
     Each view keeps equal scales on its two axes, so the paths keep their shape.
     """
+    if not isinstance(paths, Mapping):
+        paths = {"tool": paths}  # one path, drawn in the first extra style
     drawn = {name: _path(f"paths[{name!r}]", p) for name, p in paths.items()}
     if not drawn:
         raise ValueError("paths is empty: pass at least one {controller name: (T, 3) path}")
@@ -543,7 +564,7 @@ def scenario_figures(
 
     Parameters
     ----------
-    results : Mapping[str, SimResult]
+    results : SimResult or Mapping[str, SimResult]
         The scenario's runs keyed by controller name (``"pdsmc"``, ``"tsmc"``, ``"ftsmc"``,
         maybe others), in plot order.
     title : str
@@ -563,6 +584,7 @@ def scenario_figures(
     ValueError
         If ``only`` names a figure that is not among those of this scenario.
     """
+    results = as_mapping(results)
     _items(results)
     names = FIGURES + (TOOL_FIGURES if tool_paths is not None else ())
     wanted = list(names) if only is None else list(only)
