@@ -1,4 +1,4 @@
-"""The closed loop, written once over a plant handle and a law handle (SPEC §5).
+"""The closed loop, written once over a plant handle and a law handle (docs/theory.md §5).
 
 Per sample ``k`` (time ``t_k = k dt``) of a run:
 

@@ -1,4 +1,4 @@
-"""What the plant suffers: torque disturbances and model mismatch (SPEC §4).
+"""What the plant suffers: torque disturbances and model mismatch (docs/theory.md §4).
 
 Torque disturbances are evaluated at the sample times and held over each interval, like the
 control torque: the plant receives :math:`\\tau_k + d_k` over :math:`[t_k, t_{k+1})`. Actuator

@@ -1,6 +1,6 @@
 r"""Performance metrics of a closed-loop run: tracking, convergence, effort and chattering.
 
-Every metric is a pure function of sampled signals (SPEC §6). Arrays are time-major and
+Every metric is a pure function of sampled signals (docs/theory.md §6). Arrays are time-major and
 batch-first: a signal has shape ``(..., T, n)`` — ``(T, n)`` for one run, ``(B, T, n)`` for a
 batch — the time grid ``t`` has shape ``(T,)`` and is shared, and every metric returns one value
 per joint, shape ``(..., n)``.
@@ -21,7 +21,7 @@ given next to them.
 
 References
 ----------
-SPEC §6 (definitions); paper ``paper/000_764c5ab0732d16dd.txt`` (MSE table, final errors).
+docs/theory.md §6 (definitions); paper ``paper/000_764c5ab0732d16dd.txt`` (MSE table, final errors).
 """
 
 from __future__ import annotations
@@ -85,7 +85,7 @@ DEFAULT_DELTA_S: float = 2e-2
 #: (:math:`\sim k\,\Delta t^2`), far below the initial errors (0.3 to 1.2 rad).
 DEFAULT_DELTA_E: float = 1e-3
 
-#: Steady-state window (s): the last 0.5 s of the run, as SPEC §6 fixes.
+#: Steady-state window (s): the last 0.5 s of the run, as docs/theory.md §6 fixes.
 DEFAULT_WINDOW: float = 0.5
 
 #: Chattering cut-off (Hz) of :func:`hf_power_share`: 50 Hz is 300 times the reference's
@@ -192,7 +192,7 @@ def mse(e: ArrayLike) -> FloatArray:
 
     .. math:: \mathrm{MSE}_i = \frac{1}{T} \sum_{k=0}^{T-1} e_{k,i}^2
 
-    over every sample of the run (the paper's table does not say which window; SPEC §6 fixes the
+    over every sample of the run (the paper's table does not say which window; docs/theory.md §6 fixes the
     whole run).
 
     Parameters
@@ -315,7 +315,7 @@ def reaching_time(t: ArrayLike, s: ArrayLike, *, delta_s: float = DEFAULT_DELTA_
               \ \ \forall t \in [\tau, t_{T-1}]\}
 
     with :math:`s_i` linear between samples, so the time is resolved within a sample. With an
-    exact model and sign switching, :math:`t_{r,i} = (|s_i(0)| - \delta_s)/k_i` (SPEC §3).
+    exact model and sign switching, :math:`t_{r,i} = (|s_i(0)| - \delta_s)/k_i` (docs/theory.md §3).
 
     Parameters
     ----------
@@ -392,7 +392,7 @@ def steady_state_error(t: ArrayLike, e: ArrayLike, *, window: float = DEFAULT_WI
     e : array_like, shape (..., T, n)
         Tracking error (rad).
     window : float, default :data:`DEFAULT_WINDOW` = 0.5 s
-        Length :math:`w` of the final window (SPEC §6). Must be positive.
+        Length :math:`w` of the final window (docs/theory.md §6). Must be positive.
 
     Returns
     -------
@@ -677,7 +677,7 @@ def terminal_gain(
 
     .. math:: g_i = \mathrm{median}_k\; \beta_i\gamma\max(|e_{k,i}|, \varepsilon_e)^{\gamma-1}\,T_s
 
-    the factor of :math:`\dot e` in :math:`\nu` (SPEC §3) times the sample time :math:`T_s`;
+    the factor of :math:`\dot e` in :math:`\nu` (docs/theory.md §3) times the sample time :math:`T_s`;
     above 1 the sampled loop overshoots at every sample.
 
     Parameters

@@ -1,4 +1,4 @@
-"""Desired joint trajectories :math:`q_d(t)` with analytic derivatives (SPEC §2).
+"""Desired joint trajectories :math:`q_d(t)` with analytic derivatives (docs/theory.md §2).
 
 A :class:`Reference` gives the desired position, velocity and acceleration of every joint. The
 simulator calls :meth:`Reference.evaluate` once, with the whole sample-time grid ``t`` (T,),
@@ -6,11 +6,11 @@ before its compiled loop; each output has shape (T, n), time-major like every ar
 slidingarm. :meth:`Reference.__call__` evaluates one time and returns three (n,) vectors.
 
 Derivatives are always analytic (closed form, or the exact derivative of a piecewise
-polynomial): nothing here differentiates numerically (SPEC §2).
+polynomial): nothing here differentiates numerically (docs/theory.md §2).
 
 References:
 
-- :class:`PaperReference` -- the paper's sinusoidal reference (SPEC §2, Table 1);
+- :class:`PaperReference` -- the paper's sinusoidal reference (docs/theory.md §2, Table 1);
 - :class:`QuinticReference` -- point-to-point move with zero velocity and acceleration at both ends;
 - :class:`SineReference` -- per-joint sinusoid;
 - :class:`TableReference` -- a sampled table interpolated by a quintic or cubic spline
@@ -65,13 +65,13 @@ SplineKind = Literal["quintic", "cubic"]
 #: and, for the quintic, zero acceleration at both ends).
 SplineEnds = Literal["not-a-knot", "rest"]
 
-#: The paper's initial joint positions :math:`q(0)` (rad), SPEC §2.
+#: The paper's initial joint positions :math:`q(0)` (rad), docs/theory.md §2.
 PAPER_Q0: tuple[float, float, float] = (0.7, 1.5, 0.5)
-#: The paper's initial joint velocities :math:`\dot q(0)` (rad/s), SPEC §2.
+#: The paper's initial joint velocities :math:`\dot q(0)` (rad/s), docs/theory.md §2.
 PAPER_QD0: tuple[float, float, float] = (0.0, 0.0, 0.0)
-#: The paper's final time :math:`T` (s), SPEC §2.
+#: The paper's final time :math:`T` (s), docs/theory.md §2.
 PAPER_T_FINAL: float = 4.5
-#: The paper's sample time :math:`T_s` (s), SPEC §2.
+#: The paper's sample time :math:`T_s` (s), docs/theory.md §2.
 PAPER_DT: float = 5e-4
 
 #: The ``"kind"`` values :func:`reference_from_dict` understands (``"callable"`` is recorded by
@@ -249,7 +249,7 @@ class Reference(abc.ABC):
 
 
 class PaperReference(Reference):
-    """The paper's reference trajectory for its 3-DOF arm (SPEC §2, Table 1).
+    """The paper's reference trajectory for its 3-DOF arm (docs/theory.md §2, Table 1).
 
     .. math::
 
@@ -756,7 +756,7 @@ class CallableReference(Reference):
 
     Each function maps the sample times ``t`` (T,) to an array of shape (T, n) (or (T,) when
     ``n == 1``). The derivatives must be supplied: slidingarm never differentiates a reference
-    numerically (SPEC §2). The outputs are checked for shape and finiteness at every call; the
+    numerically (docs/theory.md §2). The outputs are checked for shape and finiteness at every call; the
     functions are not checked against each other.
 
     A ``CallableReference`` cannot be rebuilt from :meth:`to_dict` (which records the functions'

@@ -1,4 +1,4 @@
-"""What the controller sees: position noise, sensor faults and the velocity estimate (SPEC §4).
+"""What the controller sees: position noise, sensor faults and the velocity estimate (docs/theory.md §4).
 
 A :class:`Sensor` composes a position-noise model, any number of :class:`SensorFault` and one
 velocity estimator. It turns into plain arrays before the compiled loop runs:

@@ -1,4 +1,4 @@
-"""Fixed-step digital closed-loop simulation, single and batch (SPEC §5).
+"""Fixed-step digital closed-loop simulation, single and batch (docs/theory.md §5).
 
 The controller runs at :math:`t_k = k\\,\\Delta t` on the measurement; its torque is held over
 :math:`[t_k, t_{k+1})` (zero-order hold) while the plant is integrated by RK4 (``substeps``

@@ -93,7 +93,7 @@ class PlantSpec(_Strict):
     link parameters) or a serial arm (a shipped robot or a URDF file)."""
 
     preset: Literal["paper"] | None = Field(
-        default=None, description="'paper': m = (1, 1, 1) kg, l = (0.5, 1, 1) m (SPEC §2)."
+        default=None, description="'paper': m = (1, 1, 1) kg, l = (0.5, 1, 1) m (docs/theory.md §2)."
     )
     mass_model: Literal["point", "rod"] = Field(
         default="point", description="point: mass at the link's tip; rod: uniform slender rod."
@@ -257,7 +257,7 @@ class MismatchSpec(_Strict):
 
 
 class PaperReferenceSpec(_Strict):
-    """The paper's reference q_d(t) (SPEC §2)."""
+    """The paper's reference q_d(t) (docs/theory.md §2)."""
 
     kind: Literal["paper"]
 

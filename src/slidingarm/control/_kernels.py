@@ -1,4 +1,4 @@
-"""Compiled sliding-mode control law (SPEC §3), shared by the Python call path and the simulator.
+"""Compiled sliding-mode control law (docs/theory.md §3), shared by the Python call path and the simulator.
 
 A sliding-mode controller reaches compiled code as one float64 parameter vector ``p``, private
 to this family: ``NCI`` integer codes (stored as floats) followed by the ``(NCF, n)`` table of
@@ -237,7 +237,7 @@ def control_into(
     return it holds the nominal model kind's kinematics of ``q``
     (:mod:`slidingarm.models._dispatch`).
 
-    ``law = model`` (SPEC §3): :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q,\\dot q)`,
+    ``law = model`` (docs/theory.md §3): :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q,\\dot q)`,
     computed as the inverse dynamics (RNEA, O(n)) of the nominal arm at the acceleration
     :math:`\\ddot q_d - \\nu - r`.
 

@@ -1,4 +1,4 @@
-"""Model-based sliding-mode controllers for an n-joint arm (SPEC §3).
+"""Model-based sliding-mode controllers for an n-joint arm (docs/theory.md §3).
 
 A controller is a sliding surface, a reaching law and a nominal arm model:
 

@@ -1,4 +1,4 @@
-"""Sliding surfaces: the sliding variable ``s`` and the derivative term ``ν`` (SPEC §3).
+"""Sliding surfaces: the sliding variable ``s`` and the derivative term ``ν`` (docs/theory.md §3).
 
 Each surface is an immutable, validated parameter set. ``value`` and ``nu`` evaluate it with
 numpy (for inspection and tests); the controllers evaluate the same formulas compiled
@@ -272,7 +272,7 @@ def ftsm_convergence_time(
 ) -> FloatArray:
     """Time for the fast terminal surface to bring ``e`` from ``e0`` to 0 once ``s = 0``.
 
-    On :math:`\\dot e = -\\alpha e - \\beta\\,\\mathrm{sig}(e)^\\gamma` (SPEC §3, paper eq. 10
+    On :math:`\\dot e = -\\alpha e - \\beta\\,\\mathrm{sig}(e)^\\gamma` (docs/theory.md §3, paper eq. 10
     corrected): :math:`t_s = \\ln\\big((\\alpha|e(0)|^{1-\\gamma} + \\beta)/\\beta\\big) /
     (\\alpha(1-\\gamma))`.
     """

@@ -1,4 +1,4 @@
-"""A planar serial arm with revolute joints, in closed form (SPEC §1).
+"""A planar serial arm with revolute joints, in closed form (docs/theory.md §1).
 
 Conventions: ``q[0]`` is link 1's angle from the ``+x`` axis, counter-clockwise positive;
 ``q[i]`` (``i >= 1``) is link ``i+1``'s angle relative to link ``i``. The arm moves in the

@@ -1,4 +1,4 @@
-"""Figures of slidingarm runs (SPEC §7): pure drawing, no computation, no pyplot, no ``show()``.
+"""Figures of slidingarm runs (docs/theory.md §7): pure drawing, no computation, no pyplot, no ``show()``.
 
 Every ``plot_*`` function takes one ``SimResult`` or ``{controller name: SimResult}``, accepts an
 optional ``ax=`` and returns the :class:`~matplotlib.figure.Figure`; :func:`plot_tool_path` draws

@@ -1,4 +1,4 @@
-"""The study's figures (SPEC §7, paper Figs. 3–22): one function per signal, any number of joints.
+"""The study's figures (docs/theory.md §7, paper Figs. 3–22): one function per signal, any number of joints.
 
 Every joint ``plot_*`` function takes one :class:`~slidingarm.results.SimResult` or the runs to
 compare as a mapping ``{controller name: SimResult}`` (drawn in the mapping's order, each
@@ -442,7 +442,7 @@ def plot_steady_state(
     title: str | None = "Steady-state tracking error",
     max_points: int = MAX_POINTS,
 ) -> Figure:
-    """The tracking error over the last ``window`` seconds (default 0.5 s, as SPEC §6).
+    """The tracking error over the last ``window`` seconds (default 0.5 s, as docs/theory.md §6).
 
     With ``log=True`` (default) it draws :math:`|e_i|` on a log axis, where final errors of
     1e-8 to 1e-3 rad all read (exact zeros are left out); ``log=False`` draws :math:`e_i`.
@@ -559,7 +559,7 @@ def scenario_figures(
     tool_paths: Mapping[str, ArrayLike] | None = None,
     tool_reference: ArrayLike | None = None,
 ) -> dict[str, Figure]:
-    """Every figure of one scenario (SPEC §7), keyed by :data:`FIGURES` (and
+    """Every figure of one scenario (docs/theory.md §7), keyed by :data:`FIGURES` (and
     :data:`TOOL_FIGURES` with ``tool_paths``), in that order.
 
     Parameters

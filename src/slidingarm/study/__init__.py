@@ -1,4 +1,4 @@
-"""The paper's study (SPEC §7): shipped scenarios, running them, and regenerating everything.
+"""The paper's study (docs/theory.md §7): shipped scenarios, running them, and regenerating everything.
 
 - :data:`SCENARIOS` — ``sign``, ``tanh``, ``noise``, shipped as TOML files in
   ``slidingarm/study/scenarios/`` (with their common base ``paper.toml``, where the shared gains

@@ -307,7 +307,7 @@ def _mean_row(
 
 
 # --------------------------------------------------------------------------------------------
-# convergence against SPEC §3
+# convergence against docs/theory.md §3
 
 
 def _per_joint(value: Any, n: int) -> np.ndarray:
@@ -315,7 +315,7 @@ def _per_joint(value: Any, n: int) -> np.ndarray:
 
 
 def convergence(result: SimResult, controller: SlidingModeController) -> pd.DataFrame:
-    r"""Finite-time convergence on the surface, measured against SPEC §3, joint by joint.
+    r"""Finite-time convergence on the surface, measured against docs/theory.md §3, joint by joint.
 
     For a TSMC or FTSMC run:
 
@@ -324,7 +324,7 @@ def convergence(result: SimResult, controller: SlidingModeController) -> pd.Data
     - ``e_at_reach``: :math:`e_r = e_i(t_{reach})`;
     - ``t_s_formula``: the time the surface dynamics take from :math:`e_r` to the band
       :math:`\delta` (:data:`CONVERGENCE_BAND`): :math:`t_s(|e_r|) - t_s(\delta)`, with
-      :math:`t_s` the TSM or FTSM formula of SPEC §3 (the flow is autonomous, so this is exact;
+      :math:`t_s` the TSM or FTSM formula of docs/theory.md §3 (the flow is autonomous, so this is exact;
       :math:`t_s(\delta)` is 5 ms for :math:`\delta = 10^{-6}`);
     - ``t_s_measured``: from ``t_reach`` to the first sample where :math:`|e_i| < \delta` or
       :math:`e_i` has crossed zero;
@@ -480,7 +480,7 @@ def chattering_table(
 ERRATA: tuple[tuple[str, str, dict[str, Any]], ...] = (
     (
         "correct",
-        "FTSMC as SPEC §3 writes it: the model-based law τ = M̂(q̈_d − ν − Kφ(s)) + ĥ and the "
+        "FTSMC as docs/theory.md §3 writes it: the model-based law τ = M̂(q̈_d − ν − Kφ(s)) + ĥ and the "
         "terminal exponent γ = q/p = 3/5 (the reference row).",
         {},
     ),
@@ -689,13 +689,13 @@ def checks_table(
     setups: Mapping[str, Setup],
     noisy: Iterable[str] = ("noise",),
 ) -> pd.DataFrame:
-    """The claims the study must reproduce (SPEC §7), each as ``name, value, threshold,
+    """The claims the study must reproduce (docs/theory.md §7), each as ``name, value, threshold,
     passed``:
 
     - every scenario ranks MSE FTSMC < TSMC < PDSMC, mean over joints and on joint 1;
     - FTSMC's worst-joint steady-state error is at most :data:`SS_BOUND` (sign, tanh);
     - tanh chatters at least :data:`CHATTERING_RATIO` times less than sign, per controller;
-    - the measured convergence times match SPEC §3 within :data:`CONVERGENCE_RTOL`;
+    - the measured convergence times match docs/theory.md §3 within :data:`CONVERGENCE_RTOL`;
     - the noisy scenario stays bounded (:data:`NOISE_BOUND`);
     - no signal of any run holds NaN or inf.
     """
@@ -750,7 +750,7 @@ def checks_table(
         worst = float(np.max(np.abs(group["rel_error"].to_numpy(dtype=float))))
         rows.append(
             _check(
-                f"{scenario}: {label} convergence time vs SPEC §3 (worst |rel. error|)",
+                f"{scenario}: {label} convergence time vs docs/theory.md §3 (worst |rel. error|)",
                 worst,
                 tol,
                 bool(worst <= tol),

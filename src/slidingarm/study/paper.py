@@ -1,4 +1,4 @@
-"""The paper's own facts (SPEC §2, §7): its published MSE table and ranking, the cases of its
+"""The paper's own facts (docs/theory.md §2, §7): its published MSE table and ranking, the cases of its
 study and the figures that show them, and the Craig split of the velocity terms its model uses.
 
 Everything here belongs to the paper being reproduced, not to the library: the library's
@@ -26,7 +26,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-#: The paper's MSE table (SPEC §7), by controller. It belongs to the paper's sign-function case
+#: The paper's MSE table (docs/theory.md §7), by controller. It belongs to the paper's sign-function case
 #: (its section "Fast terminal sliding mode control with sign function", after Figs. 3-9):
 #: :data:`PAPER_MSE_SWITCHING`.
 PAPER_MSE: dict[str, float] = {"ftsmc": 0.1331, "tsmc": 0.1976, "pdsmc": 0.4698}
@@ -37,7 +37,7 @@ PAPER_MSE_SWITCHING: str = "sign"
 #: The paper's ranking, best first.
 RANKING: tuple[str, ...] = ("ftsmc", "tsmc", "pdsmc")
 
-#: The paper's cases (SPEC §7) a scenario of the study can be: sign switching (paper Figs. 3–9
+#: The paper's cases (docs/theory.md §7) a scenario of the study can be: sign switching (paper Figs. 3–9
 #: and its MSE table), tanh switching (Figs. 10–15), tanh switching with Gaussian noise on the
 #: measured positions (Figs. 16–22).
 ScenarioKind = Literal["sign", "tanh", "noise"]
@@ -79,7 +79,7 @@ PAPER_FIGURES: dict[ScenarioKind, dict[str, str | None]] = {
 
 
 def craig_split(arm: PlanarArm, q: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """The paper's (Craig's) split of the velocity terms of a 3-joint arm (SPEC §1).
+    """The paper's (Craig's) split of the velocity terms of a 3-joint arm (docs/theory.md §1).
 
     .. math:: C(q,\\dot q)\\dot q = B(q)[\\dot q\\dot q] + C_2(q)[\\dot q^2],\\quad
               [\\dot q\\dot q] = (\\dot q_1\\dot q_2, \\dot q_1\\dot q_3, \\dot q_2\\dot q_3),

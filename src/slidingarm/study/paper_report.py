@@ -79,7 +79,7 @@ _FIGURE_TEXT = {
 }
 
 _ERRATA_STATIC = """\
-The paper's mathematics has errors that slidingarm corrects (SPEC §3); each is listed with
+The paper's mathematics has errors that slidingarm corrects (docs/theory.md §8); each is listed with
 what we do instead. The table after the list measures what they cost, by running the paper's
 version of each as a variant of the study.
 
@@ -415,7 +415,7 @@ def _chattering_section(ctx: ReportContext) -> str:
     lines = [
         "## Chattering: sign against tanh",
         "",
-        "Chattering is the total variation of the torque per second (SPEC §6), the mean over "
+        "Chattering is the total variation of the torque per second (docs/theory.md §6), the mean over "
         "joints, under sign and under tanh switching, per controller. The first table takes the "
         "whole run, as the check on the sign/tanh ratio does.",
         "",
@@ -651,7 +651,7 @@ def _metrics_section(ctx: ReportContext, scenarios: list[str]) -> str:
     lines = [
         "## All metrics",
         "",
-        "Definitions and thresholds are those of `slidingarm.metrics` (SPEC §6), at its "
+        "Definitions and thresholds are those of `slidingarm.metrics` (docs/theory.md §6), at its "
         "defaults: the reaching time is the first instant after which |s_i| ≤ δ_s = "
         f"{format_value(DEFAULT_DELTA_S)} rad/s for the rest of the run, the settling time the "
         f"first instant after which |e_i| ≤ δ_e = {format_value(DEFAULT_DELTA_E)} rad for the "

@@ -1,4 +1,4 @@
-"""Regenerate the study (SPEC §7): three scenarios × three controllers, analyses, figures, report.
+"""Regenerate the study (docs/theory.md §7): three scenarios × three controllers, analyses, figures, report.
 
 :func:`reproduce` writes, into one folder (see :mod:`slidingarm.study.output` for how it is
 kept consistent)::
@@ -48,7 +48,7 @@ __all__ = ["Progress", "StudyOutput", "reproduce", "run", "run_scenario", "scena
 #: Progress callback: ``progress(what, done, total)`` with ``done`` out of ``total`` steps.
 Progress = Callable[[str, int, int], None]
 
-#: Scenarios whose TSMC/FTSMC runs are held to SPEC §3's convergence times.
+#: Scenarios whose TSMC/FTSMC runs are held to docs/theory.md §3's convergence times.
 CONVERGENCE_SCENARIOS: tuple[str, ...] = ("sign", "tanh")
 #: Scenarios the gain grid is run on.
 GRID_SCENARIOS: tuple[str, ...] = ("sign", "tanh")
@@ -103,7 +103,7 @@ def run_scenario(scenario: Scenario | Setup) -> dict[str, SimResult]:
 
 
 def scenario_kind(scenario: Scenario) -> ScenarioKind | None:
-    """Which of the paper's cases (SPEC §7) a scenario runs, from its switching function and
+    """Which of the paper's cases (docs/theory.md §7) a scenario runs, from its switching function and
     its sensor: ``"sign"`` or ``"tanh"`` switching with exact measurements, or ``"noise"``,
     tanh switching with Gaussian noise on the measured positions; None for anything else
     (``sat`` switching, or noise under sign switching).
@@ -412,7 +412,7 @@ def reproduce(
         _stage_table(staging, "metrics.csv", metrics)
         steps("metrics")
 
-        steps.start("convergence against SPEC §3")
+        steps.start("convergence against docs/theory.md §3")
         convergence = A.convergence_table(results, setups, CONVERGENCE_SCENARIOS)
         chattering = A.chattering_table(metrics)
         steps("convergence and chattering")

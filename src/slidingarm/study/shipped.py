@@ -1,4 +1,4 @@
-"""The scenario files shipped with the package: the paper's study (SPEC §7) ``sign``, ``tanh``,
+"""The scenario files shipped with the package: the paper's study (docs/theory.md §7) ``sign``, ``tanh``,
 ``noise``, and the UR5's ``ur5`` and ``ur5_sign``.
 
 They live in ``slidingarm/study/scenarios/``. ``paper.toml`` is the common base of the study —
@@ -27,7 +27,7 @@ __all__ = [
     "scenarios_dir",
 ]
 
-#: The study's scenarios, in the order of SPEC §7 (A, B, C): what ``reproduce`` runs.
+#: The study's scenarios, in the order of docs/theory.md §7 (A, B, C): what ``reproduce`` runs.
 SCENARIOS: tuple[str, ...] = ("sign", "tanh", "noise")
 
 #: Every shipped scenario, by name: the study's and those beyond it (the UR5's), in the order
