@@ -22,6 +22,7 @@ from slidingarm.study import SCENARIOS, StudyOutput, load_shipped, reproduce, ru
 from slidingarm.study import analysis as A
 from slidingarm.study import output as O
 from slidingarm.study.output import MANIFEST, OutputError, Staging
+from slidingarm.study.paper_report import figure_stem
 from slidingarm.study.reproduce import ERRATA_SCENARIO, scenario_kind
 
 CONTROLLERS = ("pdsmc", "tsmc", "ftsmc")
@@ -103,7 +104,7 @@ def test_figures(study: tuple[Path, StudyOutput]) -> None:
     for scenario in SCENARIOS:
         for name in FIGURES:
             for ext in ("png", "svg"):
-                p = figures / f"{scenario}_{name}.{ext}"
+                p = figures / f"{figure_stem(scenario, name)}.{ext}"
                 assert p.is_file() and p.stat().st_size > 1000, p
 
 

@@ -46,6 +46,7 @@ from slidingarm.results import SimResult, run_name, sliding_unit
 
 __all__ = [
     "FIGURES",
+    "LAYOUTS",
     "TOOL_FIGURES",
     "as_mapping",
     "plot_error",
@@ -59,6 +60,12 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+#: How several runs share a figure: ``"overlay"`` draws them on one panel per joint,
+#: ``"columns"`` gives each run its own column of panels (small multiples), so that chattering
+#: bands cannot hide one another.
+Layout = Literal["overlay", "columns"]
+LAYOUTS: tuple[str, ...] = ("overlay", "columns")
 #: What every ``plot_*`` function takes: one run, or runs keyed by controller name.
 Results = SimResult | Mapping[str, SimResult]
 AxesArg = Axes | Sequence[Axes] | None
@@ -202,78 +209,163 @@ def _joint_plot(
     zero_line: bool = False,
     band: bool = True,
     max_points: int = MAX_POINTS,
+    layout: Layout = "overlay",
 ) -> Figure:
-    """Draw ``signal`` (shape (T, n)) of every run, one panel per joint; ``symlog_unit``
-    follows the linear half-width written on a symlog panel (empty: no unit)."""
+    """Draw ``signal`` (shape (T, n)) of every run, one panel per joint (``layout="overlay"``)
+    or one panel per joint and run (``"columns"``: a row per joint, a column per run, rows
+    sharing their y axis); ``symlog_unit`` follows the linear half-width written on a symlog
+    panel (empty: no unit)."""
+    if layout not in LAYOUTS:
+        raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
     items, n = _items(results)
     chosen = _joints(joints, n)
+    columns = layout == "columns" and len(items) > 1
     with matplotlib.rc_context(RC):
-        height = _SINGLE_JOINT_HEIGHT if len(chosen) == 1 else None
-        fig, axes, own = panels(ax, len(chosen), height=height)
-        data = [(name, res, signal(res)) for name, res in items]
-        for a, j in zip(axes, chosen, strict=True):
+        data = [(idx, name, res, signal(res)) for idx, (name, res) in enumerate(items)]
+        if columns:
+            fig, grid, own = _column_panels(ax, len(chosen), len(items))
+        else:
+            height = _SINGLE_JOINT_HEIGHT if len(chosen) == 1 else None
+            fig, axes, own = panels(ax, len(chosen), height=height)
+            grid = [[a] for a in axes]
+        for row, j in zip(grid, chosen, strict=True):
             col = j - 1
-            columns: list[FloatArray] = []
-            t_lo, t_hi = np.inf, -np.inf
-            for idx, (name, res, y_all) in enumerate(data):
-                mask = _window_mask(res.t, window)
-                t = res.t[mask]
-                y = np.array(y_all[mask, col], dtype=np.float64)
-                if yscale == "log":
-                    y = np.abs(y)
-                    y[y == 0.0] = np.nan
-                columns.append(y)
-                _draw(
-                    a,
-                    t,
-                    y,
-                    controller_style(name, idx),
-                    zorder=3 + 0.1 * idx,
-                    max_points=max_points,
-                    band=band and yscale != "log",
-                )
-                t_lo, t_hi = min(t_lo, float(t[0])), max(t_hi, float(t[-1]))
-            if reference is not None:
-                res0 = items[0][1]
-                mask = _window_mask(res0.t, window)
-                tt, yy = envelope(res0.t[mask], reference(res0)[mask, col], max_points)
-                a.plot(tt, yy, zorder=4, **REFERENCE_STYLE.kwargs())
-            if zero_line:
-                a.axhline(0.0, color="0.45", linewidth=0.6, zorder=1)
-            if yscale == "symlog":
-                finite = [c[np.isfinite(c)] for c in columns if np.any(np.isfinite(c))]
-                if finite and max(float(np.max(np.abs(c))) for c in finite) > 0.0:
-                    thr = _symlog_threshold(finite)
-                    a.set_yscale("symlog", linthresh=thr, linscale=0.6)
-                    a.yaxis.set_major_formatter(PowerOfTenFormatter(linthresh=thr))
-                    a.text(
-                        0.995,
-                        0.97,
-                        f"symlog axis, linear for |s| < {pow10_text(thr)}"
-                        + (f" {symlog_unit}" if symlog_unit else ""),
-                        transform=a.transAxes,
-                        ha="right",
-                        va="top",
-                        fontsize=7.5,
-                        color="0.35",
-                    )
-            elif yscale == "log" and any(np.any(np.isfinite(c)) for c in columns):
-                a.set_yscale("log")
-                a.yaxis.set_major_formatter(PowerOfTenFormatter())
-                a.yaxis.set_minor_formatter(PowerOfTenFormatter(labelOnlyBase=False))
-                shown = np.concatenate([c[np.isfinite(c)] for c in columns])
-                if np.log10(float(shown.max()) / float(shown.min())) >= 3.0:
-                    # decades read well alone over a wide range, and the 8 minor ticks per
-                    # decade would cost about a third of the figure's drawing time
-                    a.yaxis.set_minor_locator(NullLocator())
-            if t_hi > t_lo:
-                a.set_xlim(t_lo, t_hi)
-            a.set_ylabel(ylabel(j))
-            a.grid(True, which="major")
-        for a in bottom_panels(axes) if own else axes[-1:]:
-            a.set_xlabel(_TIME_LABEL)
-        frame(fig, axes, own, title)
+            groups = [[d] for d in data] if columns else [data]
+            # one symlog threshold per joint, so that the panels of a row read alike
+            every = [_column(res, y_all, col, window, yscale)[1] for _i, _n, res, y_all in data]
+            for k, (a, group) in enumerate(zip(row, groups, strict=True)):
+                _panel(
+                    a, group, col, reference=reference, window=window, yscale=yscale,
+                    symlog_unit=symlog_unit, zero_line=zero_line, band=band,
+                    max_points=max_points, threshold_of=every, note=k == len(row) - 1,
+                )  # fmt: skip
+            row[0].set_ylabel(ylabel(j))
+        flat = [a for row in grid for a in row]
+        if columns:
+            for a, (idx, name, _res, _y) in zip(grid[0], data, strict=True):
+                style = controller_style(name, idx)
+                a.set_title(style.label, color=style.color, fontsize=10.0, pad=3.0)
+            for a in grid[-1]:
+                a.set_xlabel(_TIME_LABEL)
+            if own and title:
+                fig.suptitle(title, y=1.0 - 0.1 / fig.get_figheight(), va="top")
+            elif title:
+                grid[0][0].set_title(f"{title}\n{grid[0][0].get_title()}")
+        else:
+            for a in bottom_panels(flat) if own else flat[-1:]:
+                a.set_xlabel(_TIME_LABEL)
+            frame(fig, flat, own, title)
     return fig
+
+
+def _column(
+    res: SimResult, y_all: FloatArray, col: int, window: float | None, yscale: str
+) -> tuple[FloatArray, FloatArray]:
+    """Times and joint ``col`` of a run's signal over ``window``; |y| with zeros left out on a
+    log axis."""
+    mask = _window_mask(res.t, window)
+    y = np.array(y_all[mask, col], dtype=np.float64)
+    if yscale == "log":
+        y = np.abs(y)
+        y[y == 0.0] = np.nan
+    return res.t[mask], y
+
+
+def _panel(
+    a: Axes,
+    data: Sequence[tuple[int, str, SimResult, FloatArray]],
+    col: int,
+    *,
+    reference: Callable[[SimResult], FloatArray] | None,
+    window: float | None,
+    yscale: Literal["linear", "log", "symlog"],
+    symlog_unit: str,
+    zero_line: bool,
+    band: bool,
+    max_points: int,
+    threshold_of: Sequence[FloatArray],
+    note: bool = True,
+) -> None:
+    """One joint's panel: the runs of ``data`` (``(style index, name, result, signal)``), the
+    reference of the first, and the axis scale (a symlog half-width from ``threshold_of``,
+    written on the panel when ``note``)."""
+    columns: list[FloatArray] = []
+    t_lo, t_hi = np.inf, -np.inf
+    for idx, name, res, y_all in data:
+        t, y = _column(res, y_all, col, window, yscale)
+        columns.append(y)
+        _draw(
+            a,
+            t,
+            y,
+            controller_style(name, idx),
+            zorder=3 + 0.1 * idx,
+            max_points=max_points,
+            band=band and yscale != "log",
+        )
+        t_lo, t_hi = min(t_lo, float(t[0])), max(t_hi, float(t[-1]))
+    if reference is not None:
+        res0 = data[0][2]
+        mask = _window_mask(res0.t, window)
+        tt, yy = envelope(res0.t[mask], reference(res0)[mask, col], max_points)
+        a.plot(tt, yy, zorder=4, **REFERENCE_STYLE.kwargs())
+    if zero_line:
+        a.axhline(0.0, color="0.45", linewidth=0.6, zorder=1)
+    if yscale == "symlog":
+        finite = [c[np.isfinite(c)] for c in threshold_of if np.any(np.isfinite(c))]
+        if finite and max(float(np.max(np.abs(c))) for c in finite) > 0.0:
+            thr = _symlog_threshold(finite)
+            a.set_yscale("symlog", linthresh=thr, linscale=0.6)
+            a.yaxis.set_major_formatter(PowerOfTenFormatter(linthresh=thr))
+            if note:
+                a.text(
+                    0.995,
+                    0.97,
+                    f"symlog axis, linear for |s| < {pow10_text(thr)}"
+                    + (f" {symlog_unit}" if symlog_unit else ""),
+                    transform=a.transAxes,
+                    ha="right",
+                    va="top",
+                    fontsize=7.5,
+                    color="0.35",
+                )
+    elif yscale == "log" and any(np.any(np.isfinite(c)) for c in columns):
+        a.set_yscale("log")
+        a.yaxis.set_major_formatter(PowerOfTenFormatter())
+        a.yaxis.set_minor_formatter(PowerOfTenFormatter(labelOnlyBase=False))
+        shown = np.concatenate([c[np.isfinite(c)] for c in columns])
+        if np.log10(float(shown.max()) / float(shown.min())) >= 3.0:
+            # decades read well alone over a wide range, and the 8 minor ticks per
+            # decade would cost about a third of the figure's drawing time
+            a.yaxis.set_minor_locator(NullLocator())
+    if t_hi > t_lo:
+        a.set_xlim(t_lo, t_hi)
+    a.grid(True, which="major")
+
+
+def _column_panels(
+    ax: AxesArg, rows: int, cols: int
+) -> tuple[Figure, list[list[Axes]], bool]:
+    """A grid of ``rows`` joints by ``cols`` runs sharing x, each row sharing y: a new figure
+    (``ax=None``) or the caller's ``rows * cols`` Axes in row-major order."""
+    if ax is None:
+        width = 1.2 + 3.1 * cols
+        height = 1.0 + 1.65 * rows
+        fig = Figure(figsize=(width, height))
+        fig.subplots_adjust(
+            left=0.95 / width, right=1.0 - 0.18 / width, bottom=0.55 / height,
+            top=1.0 - 0.68 / height, wspace=0.12, hspace=0.16 * rows / max(rows, 1),
+        )  # fmt: skip
+        grid = fig.subplots(rows, cols, sharex=True, sharey="row", squeeze=False)
+        return fig, [[grid[r, c] for c in range(cols)] for r in range(rows)], True
+    axes = [ax] if isinstance(ax, Axes) else list(ax)
+    if len(axes) != rows * cols or not all(isinstance(a, Axes) for a in axes):
+        raise ValueError(
+            f"ax must be {rows * cols} Axes for layout='columns' (a row per joint, a column per "
+            f"run, row-major), got {len(axes)}"
+        )
+    fig, _, _ = panels(axes, len(axes))
+    return fig, [axes[r * cols : (r + 1) * cols] for r in range(rows)], False
 
 
 # ---------------------------------------------------------------------------- plot functions
@@ -351,11 +443,14 @@ def plot_torque(
     joints: Sequence[int] | None = None,
     title: str | None = "Control torque",
     max_points: int = MAX_POINTS,
+    layout: Layout = "overlay",
 ) -> Figure:
     """Applied joint torques :math:`\\tau_i(t)` (zero-order hold samples), one panel per joint.
 
-    Parameters as :func:`plot_tracking`. Sign switching shows as a band (chattering): the
-    min–max decimation keeps its full width.
+    Sign switching shows as a band (chattering) under its moving mean. With several runs
+    ``layout="columns"`` gives each its own column of panels (rows share their y axis), so
+    that one run's band cannot hide another's; ``ax`` is then ``joints × runs`` Axes in
+    row-major order. Other parameters as :func:`plot_tracking`.
     """
     return _joint_plot(
         results,
@@ -365,6 +460,7 @@ def plot_torque(
         signal=lambda r: r.tau,
         ylabel=lambda j: f"τ{subscript(j)} (N·m)",
         max_points=max_points,
+        layout=layout,
     )
 
 
@@ -376,6 +472,7 @@ def plot_sliding(
     scale: Literal["symlog", "linear"] = "symlog",
     title: str | None = "Sliding variable",
     max_points: int = MAX_POINTS,
+    layout: Layout = "overlay",
 ) -> Figure:
     """Sliding variables :math:`s_i(t)` as the controllers computed them.
 
@@ -388,6 +485,7 @@ def plot_sliding(
     TSMC, FTSMC), rad for NTSMC's :math:`s = e + \\beta^{-1}\\mathrm{sig}(\\dot e)^{p/q}` (read
     from each run's ``params["controller"]``; a run without them counts as rad/s). The axis
     carries the unit the runs share, or ``(rad/s; NTSMC: rad)`` when NTSMC is drawn with others.
+    ``layout="columns"`` draws each run in its own column, as :func:`plot_torque`.
     """
     if scale not in ("symlog", "linear"):
         raise ValueError(f"scale must be 'symlog' or 'linear', got {scale!r}")
@@ -405,6 +503,7 @@ def plot_sliding(
         symlog_unit=unit,
         zero_line=True,
         max_points=max_points,
+        layout=layout,
     )
 
 
@@ -600,8 +699,11 @@ def scenario_figures(
         "tracking_joint1": lambda: plot_tracking(
             results, joints=[1], title=full("Joint 1 position tracking")
         ),
-        "torque": lambda: plot_torque(results, title=full("Control torque")),
-        "sliding": lambda: plot_sliding(results, title=full("Sliding variable")),
+        # small multiples: the controllers' chattering bands would hide one another
+        "torque": lambda: plot_torque(results, title=full("Control torque"), layout="columns"),
+        "sliding": lambda: plot_sliding(
+            results, title=full("Sliding variable"), layout="columns"
+        ),
         "velocity": lambda: plot_velocity(results, title=full("Joint velocity")),
         "error": lambda: plot_error(results, title=full("Tracking error")),
         "steady_state": lambda: plot_steady_state(

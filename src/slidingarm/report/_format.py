@@ -185,7 +185,7 @@ def frame_table(df: pd.DataFrame, columns: Sequence[str] | None = None) -> str:
     """``df`` (the given columns, in order, then any others) as a markdown table.
 
     Known columns get labels with units (:data:`COLUMN_LABELS`), controller names are written
-    as acronyms, times use "never" for +∞, ``passed`` reads "✅ pass" / "❌ fail", numeric
+    as acronyms, times use "never" for +∞, ``passed`` reads "pass" / "FAIL", numeric
     columns are right-aligned. An empty frame gives the sentence "No rows."
     """
     if df is None or df.shape[0] == 0:
@@ -211,7 +211,7 @@ def frame_table(df: pd.DataFrame, columns: Sequence[str] | None = None) -> str:
 def cell(column: str, value: Any) -> str:
     """One formatted cell of column ``column``."""
     if column == "passed" and not is_missing(value):
-        return "✅ pass" if bool(value) else "❌ fail"
+        return "pass" if bool(value) else "FAIL"
     if column == "controller" and not is_missing(value):
         return controller_label(value)
     return format_value(value, time=column in TIME_COLUMNS)

@@ -1,17 +1,20 @@
-"""HTML rendering of the report: one self-contained file (inline CSS, figures as data URIs)."""
+"""HTML rendering of the report: one self-contained file (inline CSS, figures as data URIs),
+with a table of contents linking every section and subsection by its anchor."""
 
 from __future__ import annotations
 
 import base64
 import html
+import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from markdown_it import MarkdownIt
 
 from slidingarm.report._blocks import Block, FigureBlock
 
-__all__ = ["render_html", "render_markdown"]
+__all__ = ["render_html", "render_markdown", "slug"]
 
 _CSS = """
 :root { color-scheme: light; }
@@ -35,6 +38,11 @@ tbody tr:nth-child(even) { background: #fafbfc; }
 figure { margin: 1.2rem 0 2rem; }
 figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
 figcaption { font-size: 0.88rem; color: #444; max-width: 60rem; margin-top: 0.3rem; }
+nav.toc { background: #f6f7f9; border: 1px solid #e2e3e8; border-radius: 4px;
+  padding: 0.6rem 1.2rem; margin: 1rem 0 1.5rem; max-width: 60rem; }
+nav.toc ol { margin: 0.2rem 0; padding-left: 1.4rem; }
+nav.toc li { margin: 0.1rem 0; }
+nav.toc > p { margin: 0; font-weight: 600; }
 """
 
 
@@ -66,11 +74,69 @@ def _md_inline_escape(text: str) -> str:
     return text.replace("*", "\\*").replace("_", "\\_")
 
 
+def slug(text: str, taken: set[str]) -> str:
+    """An anchor for a heading: lower case, runs of anything but letters and digits as one
+    ``-``, unique among ``taken`` (a ``-2``, ``-3``, ... suffix), which it joins."""
+    base = re.sub(r"[^\w]+", "-", text.lower(), flags=re.UNICODE).strip("-_") or "section"
+    name, i = base, 2
+    while name in taken:
+        name, i = f"{base}-{i}", i + 1
+    taken.add(name)
+    return name
+
+
+def _render_text(
+    md: MarkdownIt, text: str, taken: set[str], toc: list[tuple[int, str, str]]
+) -> str:
+    """One markdown block as HTML, each heading given an ``id`` (recorded in ``toc`` as
+    ``(level, text, id)``)."""
+    tokens = md.parse(text)
+    for i, tok in enumerate(tokens):
+        if tok.type == "heading_open" and i + 1 < len(tokens):
+            inline = tokens[i + 1]
+            label = "".join(c.content for c in inline.children or [] if c.content) or inline.content
+            anchor = slug(label, taken)
+            tok.attrSet("id", anchor)
+            toc.append((int(tok.tag[1]), label, anchor))
+    env: dict[str, Any] = {}
+    return str(md.renderer.render(tokens, md.options, env))
+
+
+def _toc_html(toc: Sequence[tuple[int, str, str]]) -> str:
+    """A nested list of links to the sections (h2) and subsections (h3)."""
+    items = [(level, text, anchor) for level, text, anchor in toc if level in (2, 3)]
+    if not items:
+        return ""
+    out = ['<nav class="toc" aria-label="Contents"><p>Contents</p><ol>']
+    open_sub = False
+    for k, (level, text, anchor) in enumerate(items):
+        link = f'<a href="#{html.escape(anchor)}">{html.escape(text)}</a>'
+        if level == 2:
+            if open_sub:
+                out.append("</ol></li>")
+                open_sub = False
+            elif k:
+                out.append("</li>")
+            out.append(f"<li>{link}")
+        else:
+            if not open_sub:
+                out.append("<ol>")
+                open_sub = True
+            out.append(f"<li>{link}</li>")
+    out.append("</ol></li>" if open_sub else "</li>")
+    out.append("</ol></nav>")
+    return "".join(out)
+
+
 def render_html(title: str, blocks: Sequence[Block]) -> str:
     """The report as one HTML page with no external resource: CSS inline, each figure's PNG
-    embedded as a base64 ``data:`` URI, every text escaped."""
+    embedded as a base64 ``data:`` URI, every text escaped. Every heading gets an anchor
+    (:func:`slug`), and a table of contents linking the sections and their subsections follows
+    the first block (the title)."""
     md = _markdown_it()
     body = []
+    taken: set[str] = set()
+    toc: list[tuple[int, str, str]] = []
     for block in blocks:
         if isinstance(block, FigureBlock):
             data = base64.b64encode(Path(block.path).read_bytes()).decode("ascii")
@@ -81,11 +147,14 @@ def render_html(title: str, blocks: Sequence[Block]) -> str:
                 "</figure>"
             )
         else:
-            rendered = md.render(block)
+            rendered = _render_text(md, block, taken, toc)
             rendered = rendered.replace("<table>", '<div class="table-wrap"><table>').replace(
                 "</table>", "</table></div>"
             )
             body.append(rendered)
+    nav = _toc_html(toc)
+    if nav and body:
+        body.insert(1, nav)
     return (
         "<!DOCTYPE html>\n"
         '<html lang="en">\n<head>\n<meta charset="utf-8">\n'

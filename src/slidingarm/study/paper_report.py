@@ -49,7 +49,15 @@ from slidingarm.study.analysis import (
 from slidingarm.study.paper import PAPER_FIGURES, PAPER_MSE_SWITCHING, RANKING, ScenarioKind
 from slidingarm.study.report_context import ReportContext
 
-__all__ = ["PAPER_FIGURES", "ReportContext", "ScenarioKind", "build_blocks", "write_report"]
+__all__ = [
+    "PAPER_FIGURES",
+    "ReportContext",
+    "ScenarioKind",
+    "build_blocks",
+    "figure_stem",
+    "paper_figure_number",
+    "write_report",
+]
 
 _KIND_TEXT: dict[ScenarioKind, str] = {
     "sign": "sign switching (paper Figs. 3–9 and the MSE table)",
@@ -61,14 +69,15 @@ _FIGURE_TEXT = {
     "tracking_all": "Joint angles q of every joint against the reference q_d (dashed black).",
     "tracking_joint1": "Joint 1 angle against the reference (dashed black).",
     "torque": (
-        "Control torque of every joint. Where a torque chatters, the translucent band is the "
-        f"range its samples fill and the line its {format_value(SMOOTH_SECONDS * 1e3)} ms "
-        "moving mean."
+        "Control torque of every joint (rows), one controller per column on a shared axis, so "
+        "that no controller's chattering hides another's. Where a torque chatters, the "
+        "translucent band is the range its samples fill and the line its "
+        f"{format_value(SMOOTH_SECONDS * 1e3)} ms moving mean."
     ),
     "sliding": (
-        "Sliding variable s of every joint on a symmetric log axis (linear in a narrow band "
-        "around 0, whose half-width each panel states), so that both the reaching phase and "
-        "the band s stays in afterwards read."
+        "Sliding variable s of every joint (rows), one controller per column, on a symmetric "
+        "log axis (linear in a narrow band around 0, whose half-width each row states), so "
+        "that both the reaching phase and the band s stays in afterwards read."
     ),
     "velocity": "Joint velocities against the reference velocity (dashed black).",
     "error": "Tracking error e = q − q_d of every joint.",
@@ -696,10 +705,35 @@ def _noise_reaching_note(ctx: ReportContext, scen: str) -> str:
     )
 
 
+def paper_figure_number(kind: str | None, figure: str) -> int | None:
+    """The paper's (first) figure number for ``figure`` (a name of
+    :data:`slidingarm.plotting.FIGURES`) in the paper's case ``kind`` (:data:`ScenarioKind`),
+    e.g. 5 for the sign case's torque; None when the paper has no such figure or ``kind`` is not
+    one of its cases."""
+    if kind not in PAPER_FIGURES:
+        return None
+    numbers = PAPER_FIGURES[kind].get(figure)
+    if numbers is None:
+        return None
+    first = numbers.replace("–", " ").split()[0]
+    return int(first)
+
+
+def figure_stem(scenario: str, figure: str, kind: str | None = None) -> str:
+    """The file stem of a scenario's figure: ``<scenario>_fig<NN>_<figure>`` with the paper's
+    figure number ``NN`` (two digits, :func:`paper_figure_number`) when the paper has that
+    figure, else ``<scenario>_<figure>``. ``kind`` is the paper's case the scenario runs
+    (default: the scenario's name if it is one, as the study's ``sign``, ``tanh``, ``noise``),
+    so ``figure_stem("sign", "torque")`` is ``"sign_fig05_torque"``."""
+    number = paper_figure_number(scenario if kind is None else kind, figure)
+    return f"{scenario}_{figure}" if number is None else f"{scenario}_fig{number:02d}_{figure}"
+
+
 def _figure_blocks(ctx: ReportContext, scenarios: list[str], out_dir: Path) -> list[Block]:
     blocks: list[Block] = [
         "## Figures\n\n"
-        "Each scenario's figures, with the paper's figure that shows the same thing. The paper "
+        "Each scenario's figures, with the paper's figure that shows the same thing (its "
+        "number is in the file's name, e.g. `sign_fig05_torque.png`). The paper "
         "shows joint 1 only for torque, sliding variable, velocity and error; we show every "
         "joint. Colours and line styles are the same in every figure; the reference is dashed "
         "black."

@@ -7,7 +7,7 @@ kept consistent)::
     convergence.csv chattering.csv errata.csv gain_grid.csv checks.csv   the report's tables
     <scenario>/<controller>.csv      every sample: t, q1.., qd1.., qref1.., qdref1.., qm1..,
                                      qdm1.., tau1.., s1..
-    figures/<scenario>_<figure>.png and .svg    (a serial arm's scenario adds tool_path)
+    figures/<scenario>_fig<NN>_<figure>.png and .svg  (NN: the paper's figure; a serial arm adds tool_path)
     config/<scenario>.toml           the exact scenario run, resolved and self-contained
     report.md report.html            the report (the HTML embeds its figures)
     manifest.json                    version, seeds, command, runtime, every file's SHA-256;
@@ -156,10 +156,13 @@ def render_figures(
     tool_paths: tuple[np.ndarray, Mapping[str, np.ndarray]] | None = None,
 ) -> dict[str, Path]:
     """Draw and save the figures of one scenario (or ``only`` these) as
-    ``fig_dir/<name>_<figure>.png/.svg``; return figure name → PNG path. ``tool_paths`` (a
+    ``fig_dir/<name>_fig<NN>_<figure>.png/.svg`` (the paper's figure number, for the study's
+    scenarios; ``<name>_<figure>`` for a figure the paper does not have,
+    :func:`slidingarm.study.paper_report.figure_stem`); return figure name → PNG path. ``tool_paths`` (a
     serial arm's ``(desired, {label: actual})``, :func:`slidingarm.study.analysis.tool_paths`)
     adds the tool-path figure. (Top-level so that a worker process can run it.)"""
     from slidingarm.plotting import save_figure, scenario_figures
+    from slidingarm.study.paper_report import figure_stem
 
     desired, actual = (None, None) if tool_paths is None else tool_paths
     figures = scenario_figures(
@@ -167,7 +170,7 @@ def render_figures(
     )
     paths: dict[str, Path] = {}
     for fig_name, fig in figures.items():
-        written = save_figure(fig, fig_dir / f"{name}_{fig_name}")
+        written = save_figure(fig, fig_dir / figure_stem(name, fig_name))
         paths[fig_name] = next(p for p in written if p.suffix == ".png")
     return paths
 
