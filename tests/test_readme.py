@@ -13,6 +13,7 @@ control is compared.
 from __future__ import annotations
 
 import difflib
+import itertools
 import os
 import re
 import subprocess
@@ -51,6 +52,21 @@ def snippets(text: str) -> list[tuple[str, str]]:
     return pairs
 
 
+def shell_outputs(text: str) -> dict[str, str]:
+    """The output the README shows for the tour's ``slidingarm validate my.toml`` and
+    ``slidingarm run my.toml`` (the ```text block after each one-command ```bash block)."""
+    found = blocks(text)
+    shown = {}
+    for (lang, body), (nxt, out) in itertools.pairwise(found):
+        words = body.split()
+        if lang == "bash" and nxt == "text" and words[:2] in (["slidingarm", "validate"],
+                                                              ["slidingarm", "run"]):  # fmt: skip
+            if "my.toml" in words:
+                shown[words[1]] = out
+    assert set(shown) == {"validate", "run"}, "the tour shows what validate and run print"
+    return shown
+
+
 def _lines(text: str) -> list[str]:
     return [line.rstrip() for line in text.strip("\n").splitlines()]
 
@@ -69,8 +85,15 @@ def test_readme_snippets_print_what_the_readme_shows(
     assert len(tomls) == 1 and 'extends = "tanh"' in tomls[0]
     (tmp_path / "my.toml").write_text(tomls[0], encoding="utf-8")
     monkeypatch.chdir(tmp_path)
+    shown = shell_outputs(text)
+    checked = CliRunner().invoke(app, ["validate", "my.toml"])
+    assert checked.exit_code == 0 and _lines(checked.stdout) == _lines(shown["validate"])
     ran = CliRunner().invoke(app, ["run", "my.toml", "--out", "my_run", "--no-figures"])
     assert ran.exit_code == 0, ran.stderr
+    # the run's line "wrote my_run (N files) in T s" varies (time; no figures here), its table not
+    head, *table = _lines(shown["run"])
+    assert re.fullmatch(r"wrote my_run \(\d+ files\) in [\d.]+ s", head)
+    assert _lines(ran.stdout)[1:] == table
 
     pairs = snippets(text)
     script = "".join(f"{code}\nprint({MARK!r}, flush=True)\n" for code, _out in pairs)
