@@ -9,6 +9,7 @@ from slidingarm.control.controllers import (
     SWITCHING_LAWS,
     TSMC,
     SlidingModeController,
+    guard_for_period,
 )
 from slidingarm.control.custom import CustomController
 from slidingarm.control.surfaces import ftsm_convergence_time, tsm_convergence_time
@@ -26,5 +27,6 @@ __all__ = [
     "SlidingModeController",
     "check_controller",
     "ftsm_convergence_time",
+    "guard_for_period",
     "tsm_convergence_time",
 ]

@@ -42,8 +42,12 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-#: Default singularity guard: :math:`|e|^{\gamma-1}` is evaluated at :math:`\max(|e|, \varepsilon_e)`.
-#: With :math:`\gamma = 3/5` the guarded gain is at most :math:`\beta\gamma\cdot 10^{3.6}`.
+#: Singularity guard of a surface built directly: :math:`|e|^{\gamma-1}` is evaluated at
+#: :math:`\max(|e|, \varepsilon_e)`; with :math:`\gamma = 3/5` the guarded gain is at most
+#: :math:`\beta\gamma\cdot 10^{3.6}`. :class:`~slidingarm.TSMC` and :class:`~slidingarm.FTSMC`
+#: choose theirs from the control period instead (``docs/theory.md`` §3,
+#: :func:`slidingarm.control.controllers.guard_for_period`, never below this value) and use this
+#: one only when called from Python before a simulation has fixed it.
 DEFAULT_EPS_E = 1e-9
 
 
