@@ -42,6 +42,9 @@ def check_controller(
     5. **Pickling:** the controller round-trips through :mod:`pickle` and the copy computes the
        same torques.
 
+    The controller is checked as it runs at ``dt`` (:meth:`~Controller.for_period`: an
+    automatic ``eps_e`` is fixed for that period first).
+
     Raises
     ------
     ControllerCheckError
@@ -56,6 +59,9 @@ def check_controller(
         raise TypeError(f"controller must be a Controller, got {type(controller).__name__}")
     if not isinstance(model, ArmModel):
         raise TypeError(f"model must be an ArmModel, got {type(model).__name__}")
+    # checked as it runs at dt: a parameter chosen from the period (an automatic eps_e) is
+    # fixed, so that the Python path and the compiled loop evaluate the same law
+    controller = controller.for_period(dt)
     n = model.n
     if controller.n != n:
         raise ControllerCheckError(f"controller has n = {controller.n}, the model {n}")
