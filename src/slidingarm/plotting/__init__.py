@@ -1,9 +1,11 @@
-"""Figures of slidingarm runs (docs/theory.md §7): pure drawing, no computation, no pyplot, no ``show()``.
+"""Figures of slidingarm runs (docs/theory.md §7): pure drawing, no computation, no pyplot, no
+``show()``.
 
 Every ``plot_*`` function takes one ``SimResult`` or ``{controller name: SimResult}``, accepts an
 optional ``ax=`` and returns the :class:`~matplotlib.figure.Figure`; :func:`plot_tool_path` draws
-one tool path or several given as (T, 3) arrays; :func:`scenario_figures` makes the seven figures of one scenario of the study
-(and the tool path of a serial arm's) and :func:`save_figure` writes one as PNG and SVG.
+one tool path or several given as (T, 3) arrays; :func:`scenario_figures` makes the seven
+figures of one scenario of the study (and the tool path of a serial arm's) and
+:func:`save_figure` writes one as PNG and SVG.
 """
 
 from slidingarm.plotting._save import PNG_DPI, save_figure
