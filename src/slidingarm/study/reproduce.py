@@ -297,6 +297,24 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
 
 
+def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """Stop a failed or interrupted study's figure workers now, without waiting for the
+    figures they are drawing (which would take seconds): cancel what is queued, terminate the
+    workers and wait for them to end."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python 3.14
+    if terminate is not None:
+        terminate()
+        return
+    # before 3.14 the executor offers no way to stop running tasks: its own process table
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=10)
+    pool.shutdown(wait=True)
+
+
 @contextmanager
 def _terminate_as_interrupt() -> Iterator[None]:
     """Within, SIGTERM raises :class:`KeyboardInterrupt` as Ctrl-C does, so that a terminated
@@ -636,7 +654,7 @@ def _reproduce(
         steps("done")
     except BaseException:
         if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+            _stop_workers(pool)
         staging.discard()
         raise
     return StudyOutput(
