@@ -103,15 +103,16 @@ def test_the_edited_input_inside_the_folder_is_not_replaced(
         raise AssertionError("simulated although the run was to be refused first")
 
     monkeypatch.setattr(A, "simulate_setup", fail)
-    code, _, err = run(config, out, "--overwrite")
-    assert code == EXIT_USAGE
-    line = one_line_error(err)
-    assert line.startswith(
-        f"error: {out}: this run would replace config/short.toml (this run's input)"
-    )
-    assert "nothing was replaced" in line
-    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
-    assert hidden(out) == []
+    for options in ((), ("--overwrite",)):  # --overwrite does not give it away either
+        code, _, err = run(config, out, *options)
+        assert code == EXIT_USAGE
+        line = one_line_error(err)
+        assert line.startswith(
+            f"error: {out}: this run would replace config/short.toml (this run's input)"
+        )
+        assert "nothing was replaced" in line
+        assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+        assert hidden(out) == []
 
 
 def test_the_unedited_config_reruns_into_its_own_folder(tmp_path: Path) -> None:
