@@ -201,6 +201,20 @@ def test_a_second_staging_of_the_same_folder_is_refused(tmp_path: Path) -> None:
     assert sorted(p.name for p in out.iterdir()) == ["a.csv", MANIFEST]
 
 
+def test_a_file_system_without_locks_still_takes_results(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Some network file systems refuse flock (ENOLCK): the run goes on, unlocked."""
+
+    def no_locks(fd: int, operation: int) -> None:
+        raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+
+    monkeypatch.setattr(O.fcntl, "flock", no_locks)
+    out = tmp_path / "out"
+    _publish(out, {"a.csv": "1"})
+    assert sorted(p.name for p in out.iterdir()) == ["a.csv", MANIFEST]
+
+
 def test_a_failed_run_into_a_new_folder_leaves_nothing(tmp_path: Path) -> None:
     out = tmp_path / "new" / "out"
     staging = Staging(out)

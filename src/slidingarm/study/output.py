@@ -58,6 +58,12 @@ LOCK = ".slidingarm.lock"
 PARTIAL = ".partial-"
 #: How many file names a refusal lists before "and N more".
 _SHOWN = 5
+#: ``flock`` errors of a file system that has no locks (some network file systems).
+_NO_LOCKS = frozenset(
+    getattr(errno, name)
+    for name in ("ENOLCK", "EOPNOTSUPP", "ENOTSUP", "ENOSYS")
+    if hasattr(errno, name)
+)
 
 
 class OutputError(OSError):
@@ -156,7 +162,13 @@ class Staging:
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666 & ~umask())
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
+            except OSError as exc:
+                if exc.errno in _NO_LOCKS:  # a file system without locks: run unlocked
+                    self._lock_fd = fd
+                    return
+                if exc.errno not in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EACCES):
+                    os.close(fd)
+                    raise
                 holder = _read_pid(fd)
                 os.close(fd)
                 who = f"another slidingarm run (pid {holder})" if holder else "another run"
@@ -194,7 +206,15 @@ class Staging:
         if self.overwrite or self.scenarios is None:
             return
         previous = _Manifest.read(self.target / MANIFEST)
-        present = [rel for rel in previous.files if (self.target / rel).is_file()]
+        # what this run would replace or remove: the previous results still as recorded (an
+        # edited one is kept, or refuses the run when in the way: see check)
+        present = [
+            rel
+            for rel, recorded in sorted(previous.files.items())
+            if recorded is not None
+            and (self.target / rel).is_file()
+            and _sha256(self.target / rel) == recorded
+        ]
         if not present:
             return
         others = (
