@@ -122,6 +122,22 @@ def test_the_runs_own_input_is_neither_removed_nor_replaced(tmp_path: Path) -> N
     assert (out / "config" / "x.toml").read_text() == "a = 3\n"
 
 
+def test_a_file_or_folder_where_the_other_goes_is_refused_first(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "sign").write_text("a file named like a results folder")
+    (out / "metrics.csv").mkdir()
+    staging = Staging(out, overwrite=True)
+    staging.write_text("sign/pdsmc.csv", "1")
+    staging.write_text("metrics.csv", "2")
+    with pytest.raises(OutputError) as info:
+        staging.publish()
+    assert "metrics.csv (a folder)" in str(info.value)
+    assert "sign (a file where sign/pdsmc.csv needs a folder)" in str(info.value)
+    assert (out / "sign").read_text() == "a file named like a results folder"
+    assert sorted(p.name for p in out.iterdir()) == ["metrics.csv", "sign"]
+
+
 def test_identical_bytes_replace_anything(tmp_path: Path) -> None:
     """Writing a file with the bytes it already has loses nothing, so it is never refused."""
     out = tmp_path / "out"

@@ -303,6 +303,10 @@ class Staging:
             if name == MANIFEST:
                 continue
             dest = self.target / rel
+            blocked = [f for f in rel.parents if (self.target / f).is_file()]
+            if blocked:
+                protected.append(f"{blocked[-1].as_posix()} (a file where {name} needs a folder)")
+                continue
             if dest.is_dir() and not dest.is_symlink():
                 protected.append(f"{name} (a folder)")
                 continue
