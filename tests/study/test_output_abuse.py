@@ -7,6 +7,7 @@ without figures, except where the figure workers are the point)."""
 from __future__ import annotations
 
 import errno
+import hashlib
 import json
 import os
 import signal
@@ -421,3 +422,49 @@ def test_files_no_manifest_lists_need_overwrite(tmp_path: Path) -> None:
     assert code == 0, err
     assert (out / "notes.txt").read_text() == "keep\n"
     assert "metrics.csv" in listed(out)
+
+
+# ---------------------------------------------------------------- kill -9 in the middle of publishing
+
+
+KILL_WHILE_PUBLISHING = """
+import os, signal, sys
+from slidingarm.cli import app
+real, calls = os.replace, [0]
+def replace(src, dst):
+    calls[0] += 1
+    if calls[0] == 3:  # two result files moved in, the old manifest gone
+        os.kill(os.getpid(), signal.SIGKILL)
+    real(src, dst)
+os.replace = replace
+app(sys.argv[1:])
+"""
+
+
+def test_kill_9_while_publishing_then_the_next_run_recovers(tmp_path: Path) -> None:
+    """The killed run leaves a folder without a manifest (visibly incomplete); the next run
+    knows its files from the pending record, so it needs no --overwrite and keeps nothing
+    stale."""
+    out = tmp_path / "R"
+    config = short(tmp_path)
+    assert run(config, out)[0] == 0
+    longer = tmp_path / "longer.toml"  # the same scenario, other numbers: other bytes
+    longer.write_text(config.read_text().replace("t_final = 0.25", "t_final = 0.3"))
+    args = ["run", str(longer), "--out", str(out), "--no-figures"]
+    done = subprocess.run(
+        [sys.executable, "-c", KILL_WHILE_PUBLISHING, *args], capture_output=True, check=False
+    )
+    assert done.returncode == -signal.SIGKILL, done.stderr
+    assert not (out / MANIFEST).exists(), "a half-published folder has no manifest"
+    code, _, err = run(config, out)
+    assert code == 0, err
+    manifest = json.loads((out / MANIFEST).read_text())
+    on_disk = sorted(
+        p.relative_to(out).as_posix()
+        for p in out.rglob("*")
+        if p.is_file() and not p.name.startswith(".")
+    )
+    assert on_disk == sorted([*listed(out), MANIFEST]), "nothing unlisted is left"
+    for entry in manifest["files"]:
+        assert hashlib.sha256((out / entry["path"]).read_bytes()).hexdigest() == entry["sha256"]
+    assert hidden(out) == [] and not (out / ".manifest.pending.json").exists()

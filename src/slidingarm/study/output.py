@@ -7,10 +7,13 @@ has published or given up, so a second run into the same folder is refused at on
 is then written into a hidden staging folder *inside* the target
 (``<target>/.partial-<pid>-<start>-XXXX``), so staging and publishing stay on the target's own
 file system (a mount point, a Docker volume) and need no write access to the target's parent.
-Publishing removes the old ``manifest.json`` first, moves each file in with :func:`os.replace`
-(atomic per file) and moves the new ``manifest.json`` in last. A folder whose ``manifest.json``
-lists its files is complete; a failure before publishing removes the staging folder (and the
-target, if this run created it and nothing else is in it) and leaves the target as it was.
+Publishing writes a record of both runs' files and hashes (``.manifest.pending.json``), removes
+the old ``manifest.json``, moves each file in with :func:`os.replace` (atomic per file), moves
+the new ``manifest.json`` in last and drops the record; a run killed half-way thus leaves a
+folder without a manifest, and the record tells the next run which of its files were results.
+A folder whose ``manifest.json`` lists its files is complete; a failure before publishing
+removes the staging folder (and the target, if this run created it and nothing else is in it)
+and leaves the target as it was.
 
 What a run may replace or remove in an existing folder:
 
@@ -40,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from slidingarm._io import umask
+from slidingarm._io import atomic_write_text, umask
 from slidingarm.results import SimResult
 
 try:  # POSIX; elsewhere runs are not locked against each other
@@ -56,6 +59,9 @@ MANIFEST = "manifest.json"
 LOCK = ".slidingarm.lock"
 #: Prefix of a staging folder inside the output folder.
 PARTIAL = ".partial-"
+#: While a run moves its files in: every file of the previous and the new manifest with their
+#: hashes, so that a run killed half-way leaves a record of what in the folder were results.
+PENDING = ".manifest.pending.json"
 #: How many file names a refusal lists before "and N more".
 _SHOWN = 5
 #: ``flock`` errors of a file system that has no locks (some network file systems).
@@ -205,15 +211,13 @@ class Staging:
         """Refuse, unless ``overwrite``, a folder holding the results of other scenarios."""
         if self.overwrite or self.scenarios is None:
             return
-        previous = _Manifest.read(self.target / MANIFEST)
+        previous = _Manifest.of(self.target)
         # what this run would replace or remove: the previous results still as recorded (an
         # edited one is kept, or refuses the run when in the way: see check)
         present = [
             rel
             for rel, recorded in sorted(previous.files.items())
-            if recorded is not None
-            and (self.target / rel).is_file()
-            and _sha256(self.target / rel) == recorded
+            if recorded and (self.target / rel).is_file() and _sha256(self.target / rel) in recorded
         ]
         if not present:
             return
@@ -294,7 +298,7 @@ class Staging:
         OutputError
             Naming the files in the way; nothing in the target has been touched.
         """
-        previous = _Manifest.read(self.target / MANIFEST)
+        previous = _Manifest.of(self.target)
         root = self._staging()
         protected: list[str] = []
         unlisted: list[str] = []
@@ -317,8 +321,8 @@ class Staging:
                 continue
             if _real(dest) in self.inputs:
                 protected.append(f"{name} (this run's input)")
-            elif previous.files.get(name) is not None:
-                if previous.files[name] != current:
+            elif previous.files.get(name):
+                if current not in previous.files[name]:
                     protected.append(f"{name} (changed since {MANIFEST} recorded it)")
             elif not self.overwrite:
                 unlisted.append(name)
@@ -354,7 +358,11 @@ class Staging:
             self.check()
             for p in root.rglob("*"):
                 p.chmod(self._mode_dir if p.is_dir() else self._mode_file)
-            previous = _Manifest.read(self.target / MANIFEST)
+            previous = _Manifest.of(self.target)
+            # until the new manifest is in, a record of both runs' files tells the next run
+            # which files in the folder were results (if this one is killed half-way)
+            pending = previous.merged(_Manifest.read(root / MANIFEST))
+            atomic_write_text(self.target / PENDING, pending.to_json())
             (self.target / MANIFEST).unlink(missing_ok=True)
             staged = [rel for rel in self.files() if rel.as_posix() != MANIFEST]
             for rel in staged:
@@ -367,6 +375,7 @@ class Staging:
             self.kept = _remove_stale(self.target, stale, self.inputs)
             if (root / MANIFEST).exists():
                 _move(root / MANIFEST, self.target / MANIFEST)
+            (self.target / PENDING).unlink(missing_ok=True)
             self._created = False  # published: the folder is the results now
         except OutputError:
             raise
@@ -392,10 +401,11 @@ class Staging:
 
 
 class _Manifest:
-    """What a previous manifest says: file path → recorded SHA-256 (None if it states none), and
-    the scenarios (None if it names none). A missing or unreadable manifest lists nothing."""
+    """What a previous manifest says: file path → the SHA-256 values recorded for it (empty if
+    it states none; two in a pending record, the old run's and the new one's), and the
+    scenarios (None if it names none). A missing or unreadable manifest lists nothing."""
 
-    def __init__(self, files: dict[str, str | None], scenarios: list[str] | None) -> None:
+    def __init__(self, files: dict[str, frozenset[str]], scenarios: list[str] | None) -> None:
         self.files = files
         self.scenarios = scenarios
 
@@ -403,17 +413,48 @@ class _Manifest:
     def read(cls, path: Path) -> _Manifest:
         try:
             body = json.loads(path.read_text(encoding="utf-8"))
-            entries = body.get("files", [])
-            files = {
-                str(e["path"]): (str(e["sha256"]) if isinstance(e.get("sha256"), str) else None)
-                for e in entries
-                if isinstance(e, dict) and "path" in e
-            }
+            files: dict[str, frozenset[str]] = {}
+            for e in body.get("files", []):
+                if not isinstance(e, dict) or "path" not in e:
+                    continue
+                sha = e.get("sha256")
+                hashes = [sha] if isinstance(sha, str) else sha if isinstance(sha, list) else []
+                files[str(e["path"])] = frozenset(str(h) for h in hashes)
             raw = body.get("scenarios")
             scenarios = [str(s) for s in raw] if isinstance(raw, list) else None
             return cls(files, scenarios)
         except (OSError, ValueError, AttributeError, TypeError):
             return cls({}, None)
+
+    @classmethod
+    def of(cls, folder: Path) -> _Manifest:
+        """The folder's ``manifest.json``; without one, the pending record of a publish that
+        was cut short (:data:`PENDING`)."""
+        if (folder / MANIFEST).is_file():
+            return cls.read(folder / MANIFEST)
+        return cls.read(folder / PENDING)
+
+    def merged(self, other: _Manifest) -> _Manifest:
+        """Both listings: each path with the hashes either records; the scenarios of both
+        (None if one that lists files names none)."""
+        files = dict(self.files)
+        for rel, hashes in other.files.items():
+            files[rel] = files.get(rel, frozenset()) | hashes
+        unknown = any(m.scenarios is None and m.files for m in (self, other))
+        scenarios = (
+            None
+            if unknown
+            else list(dict.fromkeys([*(self.scenarios or []), *(other.scenarios or [])]))
+        )
+        return _Manifest(files, scenarios)
+
+    def to_json(self) -> str:
+        body: dict[str, Any] = {
+            "files": [{"path": rel, "sha256": sorted(h)} for rel, h in sorted(self.files.items())]
+        }
+        if self.scenarios is not None:
+            body["scenarios"] = self.scenarios
+        return json.dumps(body, indent=2) + "\n"
 
 
 def _real(path: str | os.PathLike[str]) -> Path:
@@ -461,11 +502,11 @@ def _move(src: Path, dest: Path) -> None:
 
 
 def _remove_stale(
-    target: Path, stale: dict[str, str | None], inputs: frozenset[Path]
+    target: Path, stale: dict[str, frozenset[str]], inputs: frozenset[Path]
 ) -> list[Path]:
-    """Remove the files ``stale`` (relative path → recorded SHA-256) inside ``target`` whose
-    content is still the recorded one and that are not among ``inputs``, then the folders they
-    leave empty; never anything outside ``target``. Returns the files kept (relative)."""
+    """Remove the files ``stale`` (relative path → recorded SHA-256 values) inside ``target``
+    whose content is still a recorded one and that are not among ``inputs``, then the folders
+    they leave empty; never anything outside ``target``. Returns the files kept (relative)."""
     root = target.resolve()
     kept: list[Path] = []
     for rel in sorted(stale):
@@ -473,7 +514,7 @@ def _remove_stale(
         if root not in path.parents or not path.is_file():
             continue
         recorded = stale[rel]
-        if path in inputs or recorded is None or _sha256(path) != recorded:
+        if path in inputs or _sha256(path) not in recorded:
             kept.append(path.relative_to(root))
             continue
         path.unlink()

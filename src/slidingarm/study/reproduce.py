@@ -315,28 +315,72 @@ def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
     pool.shutdown(wait=True)
 
 
+class _Termination:
+    """SIGTERM as Ctrl-C (see :func:`_terminate_as_interrupt`), held back while a worker process
+    is being started: interrupting its start leaves a child that prints a traceback."""
+
+    def __init__(self) -> None:
+        self.holding = 0
+        self.pending = False
+
+    def handler(self, signum: int, frame: object) -> None:
+        if self.holding:
+            self.pending = True
+            return
+        self.interrupt()
+
+    def interrupt(self) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second one during the clean-up
+        raise KeyboardInterrupt
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        """Within, a SIGTERM waits; it interrupts on exit."""
+        self.holding += 1
+        try:
+            yield
+        finally:
+            self.holding -= 1
+        if not self.holding and self.pending:
+            self.pending = False
+            self.interrupt()
+
+
+#: The handler in force, if any (only one run installs it at a time: the main thread's).
+_TERMINATION: _Termination | None = None
+
+
 @contextmanager
 def _terminate_as_interrupt() -> Iterator[None]:
     """Within, SIGTERM raises :class:`KeyboardInterrupt` as Ctrl-C does, so that a terminated
     run removes its staging folder and stops its figure workers; a second SIGTERM during that
     clean-up is ignored. Only in the main thread and when SIGTERM has its default action (an
-    application's own handler is left alone); the previous handler is restored on exit."""
+    application's own handler is left alone); the default is restored on exit."""
+    global _TERMINATION
     if (
         threading.current_thread() is not threading.main_thread()
         or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
     ):
         yield
         return
-
-    def terminated(signum: int, frame: object) -> None:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, terminated)
+    _TERMINATION = _Termination()
+    signal.signal(signal.SIGTERM, _TERMINATION.handler)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        _TERMINATION = None
+
+
+@contextmanager
+def _starting_workers() -> Iterator[None]:
+    """Hold back SIGTERM while the pool may start a worker process (creating it, submitting)."""
+    termination = _TERMINATION
+    if termination is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    with termination.held():
+        yield
 
 
 def _inputs(scenario: Scenario) -> list[Path]:
@@ -531,14 +575,15 @@ def _reproduce(
         # (and import matplotlib) while the scenarios are simulated
         workers = min(jobs, len(setups)) if jobs > 1 else 0
         if workers:
-            pool = cf.ProcessPoolExecutor(
-                max_workers=workers,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=_watch_parent,
-                initargs=(os.getpid(),),
-            )
-            for _ in range(workers):
-                pool.submit(_warm_up)
+            with _starting_workers():
+                pool = cf.ProcessPoolExecutor(
+                    max_workers=workers,
+                    mp_context=multiprocessing.get_context("spawn"),
+                    initializer=_watch_parent,
+                    initargs=(os.getpid(),),
+                )
+                for _ in range(workers):
+                    pool.submit(_warm_up)
         figures = _figure_names()
 
         n_runs = sum(len(s.controllers) for s in setups.values())
@@ -557,13 +602,14 @@ def _reproduce(
         # last scenario's figures were drawn by one worker while the others idled)
         futures: dict[str, list[cf.Future[dict[str, Path]]]] = {}
         if pool is not None:
-            for name, setup in setups.items():
-                futures[name] = [
-                    pool.submit(
-                        render_figures, name, results[name], _title(setup), fig_dir, (figure,)
-                    )
-                    for figure in figures
-                ]
+            with _starting_workers():
+                for name, setup in setups.items():
+                    futures[name] = [
+                        pool.submit(
+                            render_figures, name, results[name], _title(setup), fig_dir, (figure,)
+                        )
+                        for figure in figures
+                    ]
 
         for name in setups:
             _stage_runs(staging, name, results[name], steps)
