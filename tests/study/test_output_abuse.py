@@ -275,7 +275,9 @@ def _start_reproduce(out: Path) -> tuple[subprocess.Popen[bytes], list[int]]:
     return proc, workers
 
 
-def _wait_gone(pids: list[int], timeout: float = 15.0) -> list[int]:
+def _wait_gone(pids: list[int], timeout: float = 60.0) -> list[int]:
+    """Wait for ``pids`` to end; return those still running. A worker killed while it starts
+    ends once it reaches its initializer (after its imports: seconds on a loaded machine)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         alive = [p for p in pids if _running(p)]
