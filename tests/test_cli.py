@@ -232,7 +232,7 @@ def test_a_full_disk_is_one_line_and_writes_nothing(
     assert code == EXIT_USAGE
     line = one_line_error(err)
     assert line.endswith(f"{os.strerror(errno.ENOSPC)}; nothing was written")
-    assert "short/pdsmc.csv" in line
+    assert "config/short.toml" in line, "the first file staged: the config, before any simulation"
     assert list(tmp_path.iterdir()) == [short_config], "neither the output nor a staging folder"
 
 

@@ -133,6 +133,26 @@ def _mse_table(metrics: Any) -> str:
     return "\n".join(lines)
 
 
+#: Help of ``--overwrite`` (``run`` and ``reproduce``).
+_OVERWRITE_HELP = (
+    "Replace another scenario's results in the folder (and files no manifest lists); never a "
+    "file edited since its manifest recorded it, nor the run's input."
+)
+
+
+def _report_kept(kept: list[Path], out: Path) -> None:
+    """Say which of the previous run's files were kept because they were edited."""
+    if kept:
+        names = ", ".join(str(p) for p in kept[:5]) + (
+            f" and {len(kept) - 5} more" if len(kept) > 5 else ""
+        )
+        typer.echo(
+            f"kept in {out} (changed since the previous run wrote them, or this run's input; "
+            f"not part of these results): {names}",
+            err=True,
+        )
+
+
 def _load(config: str) -> Any:
     from slidingarm.study import resolve_scenario
 
@@ -154,17 +174,21 @@ def reproduce(
             "--jobs", "-j", min=0, help="Processes drawing figures (0: automatic, 1: none)."
         ),
     ] = 0,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help=_OVERWRITE_HELP)] = False,
 ) -> None:
     """Regenerate the study: 3 scenarios × 3 controllers, CSVs, metrics, figures, report."""
     from slidingarm.study import reproduce as run_study
 
+    words: list[object] = ["--out", out, *(["--jobs", jobs] if jobs else [])]
     with _errors(), _progress() as progress:
         result = run_study(
             out,
             progress=progress,
-            command=_command("reproduce", "--out", out, *(["--jobs", jobs] if jobs else [])),
+            command=_command("reproduce", *words, *(["--overwrite"] if overwrite else [])),
             jobs=jobs or None,
+            overwrite=overwrite,
         )
+    _report_kept(result.kept, out)
     typer.echo(f"wrote {out} ({len(result.files)} files) in {result.runtime_s:.1f} s")
     typer.echo(f"report: {out / 'report.html'}")
     typer.echo(_mse_table(result.metrics))
@@ -189,6 +213,7 @@ def run(
     figures: Annotated[
         bool, typer.Option("--figures/--no-figures", help="Draw the figures.")
     ] = True,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help=_OVERWRITE_HELP)] = False,
 ) -> None:
     """Run one scenario: CSVs, metrics.csv, figures and the config used."""
     from slidingarm.study import run as run_one
@@ -196,8 +221,20 @@ def run(
     with _errors():
         scenario = _load(config)
         with _progress() as progress:
-            command = _command("run", config, "--out", out, *([] if figures else ["--no-figures"]))
-            result = run_one(scenario, out, progress=progress, command=command, figures=figures)
+            options = [
+                *([] if figures else ["--no-figures"]),
+                *(["--overwrite"] if overwrite else []),
+            ]
+            command = _command("run", config, "--out", out, *options)
+            result = run_one(
+                scenario,
+                out,
+                progress=progress,
+                command=command,
+                figures=figures,
+                overwrite=overwrite,
+            )
+    _report_kept(result.kept, out)
     typer.echo(f"wrote {out} ({len(result.files)} files) in {result.runtime_s:.1f} s")
     typer.echo(_mse_table(result.metrics))
 

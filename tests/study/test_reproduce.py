@@ -347,7 +347,8 @@ def test_gain_grid(study: tuple[Path, StudyOutput]) -> None:
 
 
 def staging_dirs(parent: Path) -> list[Path]:
-    return [p for p in parent.iterdir() if ".partial-" in p.name]
+    """Staging folders (and lock files) anywhere under ``parent``: beside or inside a target."""
+    return [p for p in parent.rglob("*") if ".partial-" in p.name or p.name == O.LOCK]
 
 
 def test_failure_mid_run_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -414,7 +415,9 @@ def test_staged_files_are_invisible_until_published(tmp_path: Path) -> None:
     out = tmp_path / "results"
     staging = Staging(out)
     staging.write_text("x/y.csv", "1\n")
-    assert not out.exists()
+    # the folder is taken (locked, staging inside it) but holds no result yet
+    assert sorted(p.name for p in out.iterdir()) == sorted([O.LOCK, staging.path.name])
+    assert staging.path.name.startswith(".partial-")
     staging.write_manifest({})
     staging.publish()
     assert (out / "x" / "y.csv").read_text() == "1\n"

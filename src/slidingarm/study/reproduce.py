@@ -19,12 +19,17 @@ kept consistent)::
 from __future__ import annotations
 
 import concurrent.futures as cf
+import ctypes
 import datetime as _dt
 import multiprocessing
 import os
 import platform
+import signal
+import sys
+import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -74,6 +79,10 @@ class StudyOutput:
         Wall-clock time of the whole call (s).
     files : list of Path
         Every file written, relative to ``out_dir``.
+    kept : list of Path
+        Files of the folder's previous run that this run did not write but kept, because they
+        changed since that run's manifest recorded them (or are this run's input), relative to
+        ``out_dir``.
     """
 
     out_dir: Path
@@ -81,6 +90,7 @@ class StudyOutput:
     checks: pd.DataFrame = field(default_factory=pd.DataFrame)
     runtime_s: float = 0.0
     files: list[Path] = field(default_factory=list)
+    kept: list[Path] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
@@ -259,6 +269,131 @@ def _warm_up() -> None:
     import slidingarm.plotting  # noqa: F401
 
 
+#: ``prctl`` option asking Linux to send a signal to this process when its parent dies.
+_PR_SET_PDEATHSIG = 1
+#: How often a figure worker checks that its parent still runs (s).
+_WATCH_PERIOD_S = 0.5
+
+
+def _watch_parent(parent: int) -> None:
+    """Initializer of a figure worker: end the worker as soon as ``parent`` (the process that
+    started it) dies, even by ``kill -9``, so that no worker outlives an interrupted study.
+
+    On Linux the kernel kills the worker when its parent dies (``prctl(PR_SET_PDEATHSIG,
+    SIGKILL)``); everywhere a daemon thread also polls :func:`os.getppid`, which changes from
+    ``parent`` when the parent is gone.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # no prctl: the thread below still watches
+            pass
+    if os.getppid() != parent:  # the parent died before the worker got here
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(_WATCH_PERIOD_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
+
+
+def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """Stop a failed or interrupted study's figure workers now, without waiting for the
+    figures they are drawing (which would take seconds): cancel what is queued, terminate the
+    workers and wait for them to end."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python 3.14
+    if terminate is not None:
+        terminate()
+        return
+    # before 3.14 the executor offers no way to stop running tasks: its own process table
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=10)
+    pool.shutdown(wait=True)
+
+
+class _Termination:
+    """SIGTERM as Ctrl-C (see :func:`_terminate_as_interrupt`), held back while a worker process
+    is being started: interrupting its start leaves a child that prints a traceback."""
+
+    def __init__(self) -> None:
+        self.holding = 0
+        self.pending = False
+
+    def handler(self, signum: int, frame: object) -> None:
+        if self.holding:
+            self.pending = True
+            return
+        self.interrupt()
+
+    def interrupt(self) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second one during the clean-up
+        raise KeyboardInterrupt
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        """Within, a SIGTERM waits; it interrupts on exit."""
+        self.holding += 1
+        try:
+            yield
+        finally:
+            self.holding -= 1
+        if not self.holding and self.pending:
+            self.pending = False
+            self.interrupt()
+
+
+#: The handler in force, if any (only one run installs it at a time: the main thread's).
+_TERMINATION: _Termination | None = None
+
+
+@contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """Within, SIGTERM raises :class:`KeyboardInterrupt` as Ctrl-C does, so that a terminated
+    run removes its staging folder and stops its figure workers; a second SIGTERM during that
+    clean-up is ignored. Only in the main thread and when SIGTERM has its default action (an
+    application's own handler is left alone); the default is restored on exit."""
+    global _TERMINATION
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    ):
+        yield
+        return
+    _TERMINATION = _Termination()
+    signal.signal(signal.SIGTERM, _TERMINATION.handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        _TERMINATION = None
+
+
+@contextmanager
+def _starting_workers() -> Iterator[None]:
+    """Hold back SIGTERM while the pool may start a worker process (creating it, submitting)."""
+    termination = _TERMINATION
+    if termination is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    with termination.held():
+        yield
+
+
+def _inputs(scenario: Scenario) -> list[Path]:
+    """The files a scenario was read from: its own and those it extends."""
+    files = {Path(f) for f in scenario._origin.values()}
+    if scenario.source is not None:
+        files.add(scenario.source)
+    return sorted(files)
+
+
 def _figure_names(tool: bool = False) -> tuple[str, ...]:
     """The figures of one scenario, :data:`slidingarm.plotting.FIGURES`, and with ``tool`` (a
     serial arm's) :data:`~slidingarm.plotting.TOOL_FIGURES` (this imports the plotting stack,
@@ -283,23 +418,54 @@ def run(
     progress: Progress | None = None,
     command: str | None = None,
     figures: bool = True,
+    overwrite: bool = False,
 ) -> StudyOutput:
     """Run one scenario and write its results folder.
 
     Writes ``<name>/<controller>.csv``, ``metrics.csv``, ``figures/<name>_<figure>.png/.svg``,
     ``config/<name>.toml`` and ``manifest.json`` (last) into ``out_dir``, through a staging
-    folder (nothing is left behind on failure).
+    folder (nothing is left behind on failure). What may be replaced in an existing folder is
+    stated in :mod:`slidingarm.study.output`: never a file edited since the previous manifest
+    recorded it, nor the scenario's own file; another scenario's results only with
+    ``overwrite``. SIGTERM (in the main thread) is handled as Ctrl-C.
 
     Raises
     ------
     OutputError
-        If ``out_dir`` is a file or cannot be written (before any simulation).
+        If ``out_dir`` is a file, cannot be written, is being written by another run, holds
+        another scenario's results (without ``overwrite``) or a file this run must not replace
+        (before any simulation where it can be known then).
     ConfigError, SimulationError
         If the scenario does not build or a run diverges.
     """
+    with _terminate_as_interrupt():
+        return _run(
+            scenario,
+            out_dir,
+            progress=progress,
+            command=command,
+            figures=figures,
+            overwrite=overwrite,
+        )
+
+
+def _run(
+    scenario: Scenario,
+    out_dir: str | os.PathLike[str],
+    *,
+    progress: Progress | None,
+    command: str | None,
+    figures: bool,
+    overwrite: bool,
+) -> StudyOutput:
     t0 = time.perf_counter()
-    staging = Staging(out_dir)
+    staging = Staging(
+        out_dir, scenarios=[scenario.key], inputs=_inputs(scenario), overwrite=overwrite
+    )
     try:
+        # the config is known before anything runs: a file it must not replace refuses now
+        staging.write_text(f"config/{scenario.key}.toml", _config_text(scenario))
+        staging.check()
         setup = scenario.build()
         name = setup.name
         n_ctrl = len(setup.controllers)
@@ -312,7 +478,6 @@ def run(
         _stage_runs(staging, name, results, steps)
         metrics = A.metrics_table({name: results})
         _stage_table(staging, "metrics.csv", metrics)
-        staging.write_text(f"config/{name}.toml", _config_text(scenario))
         steps("metrics and config")
         if figures:
             steps.start(f"{name}: figures")
@@ -332,7 +497,13 @@ def run(
     except BaseException:
         staging.discard()
         raise
-    return StudyOutput(Path(out_dir), metrics, runtime_s=time.perf_counter() - t0, files=files)
+    return StudyOutput(
+        Path(out_dir),
+        metrics,
+        runtime_s=time.perf_counter() - t0,
+        files=files,
+        kept=staging.kept,
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -345,44 +516,77 @@ def reproduce(
     progress: Progress | None = None,
     command: str | None = None,
     jobs: int | None = None,
+    overwrite: bool = False,
 ) -> StudyOutput:
     """Regenerate the whole study into ``out_dir`` (layout in the module docstring).
 
     Parameters
     ----------
     out_dir : path
-        The results folder; created if needed. Existing files of the same names are replaced;
-        ``manifest.json``, written last, lists the files of this run. (The command line's
-        default is :data:`slidingarm.cli.DEFAULT_OUT`.)
+        The results folder; created if needed. Existing files of the same names are replaced
+        as :mod:`slidingarm.study.output` states (never a file edited since the previous
+        manifest recorded it); ``manifest.json``, written last, lists the files of this run.
+        (The command line's default is :data:`slidingarm.cli.DEFAULT_OUT`.)
     progress : callable, optional
         ``progress(what, done, total)``, called as the work advances.
     command : str, optional
         The command line to record in the manifest and report.
     jobs : int, optional
         Processes drawing the figures while the main process computes (default: up to 3,
-        bounded by the CPU count); 1 draws them in this process.
+        bounded by the CPU count); 1 draws them in this process. A worker ends when this
+        process dies, even by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
+    overwrite : bool
+        Replace the results of other scenarios (a ``run`` of one's own) in ``out_dir``.
 
     Raises
     ------
     OutputError
-        If ``out_dir`` is a file or cannot be written (before any work).
+        If ``out_dir`` is a file, cannot be written, is being written by another run or holds
+        other scenarios' results (without ``overwrite``), before any work; or if it holds a
+        file this run must not replace.
     """
+    with _terminate_as_interrupt():
+        return _reproduce(
+            out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite
+        )
+
+
+def _reproduce(
+    out_dir: str | os.PathLike[str],
+    *,
+    progress: Progress | None,
+    command: str | None,
+    jobs: int | None,
+    overwrite: bool,
+) -> StudyOutput:
     t0 = time.perf_counter()
     jobs = _default_jobs() if jobs is None else max(1, int(jobs))
-    staging = Staging(out_dir)
+    scenarios = {name: load_shipped(name) for name in SCENARIOS}
+    staging = Staging(
+        out_dir,
+        scenarios=list(scenarios),
+        inputs=[f for s in scenarios.values() for f in _inputs(s)],
+        overwrite=overwrite,
+    )
     pool: cf.ProcessPoolExecutor | None = None
     try:
-        scenarios = {name: load_shipped(name) for name in SCENARIOS}
+        for name, scenario in scenarios.items():
+            staging.write_text(f"config/{name}.toml", _config_text(scenario))
+        staging.check()
         setups = {name: s.build() for name, s in scenarios.items()}
         # figures are drawn in worker processes while this one computes; the workers start
         # (and import matplotlib) while the scenarios are simulated
         workers = min(jobs, len(setups)) if jobs > 1 else 0
         if workers:
-            pool = cf.ProcessPoolExecutor(
-                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
-            )
-            for _ in range(workers):
-                pool.submit(_warm_up)
+            with _starting_workers():
+                pool = cf.ProcessPoolExecutor(
+                    max_workers=workers,
+                    mp_context=multiprocessing.get_context("spawn"),
+                    initializer=_watch_parent,
+                    initargs=(os.getpid(),),
+                )
+                for _ in range(workers):
+                    pool.submit(_warm_up)
         figures = _figure_names()
 
         n_runs = sum(len(s.controllers) for s in setups.values())
@@ -401,13 +605,14 @@ def reproduce(
         # last scenario's figures were drawn by one worker while the others idled)
         futures: dict[str, list[cf.Future[dict[str, Path]]]] = {}
         if pool is not None:
-            for name, setup in setups.items():
-                futures[name] = [
-                    pool.submit(
-                        render_figures, name, results[name], _title(setup), fig_dir, (figure,)
-                    )
-                    for figure in figures
-                ]
+            with _starting_workers():
+                for name, setup in setups.items():
+                    futures[name] = [
+                        pool.submit(
+                            render_figures, name, results[name], _title(setup), fig_dir, (figure,)
+                        )
+                        for figure in figures
+                    ]
 
         for name in setups:
             _stage_runs(staging, name, results[name], steps)
@@ -444,8 +649,6 @@ def reproduce(
             ("checks.csv", checks),
         ):
             _stage_table(staging, relative, table)
-        for name, scenario in scenarios.items():
-            staging.write_text(f"config/{name}.toml", _config_text(scenario))
 
         figure_paths: dict[str, dict[str, Path]] = {}
         for name, setup in setups.items():
@@ -500,9 +703,14 @@ def reproduce(
         steps("done")
     except BaseException:
         if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+            _stop_workers(pool)
         staging.discard()
         raise
     return StudyOutput(
-        Path(out_dir), metrics, checks, runtime_s=time.perf_counter() - t0, files=files
+        Path(out_dir),
+        metrics,
+        checks,
+        runtime_s=time.perf_counter() - t0,
+        files=files,
+        kept=staging.kept,
     )
