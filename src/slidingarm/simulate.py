@@ -53,6 +53,7 @@ __all__ = [
     "RunTooLargeError",
     "SimulationError",
     "available_memory",
+    "byte_size",
     "memory_estimate",
     "simulate",
     "simulate_batch",
@@ -472,8 +473,12 @@ def memory_estimate(
     return grid + traces + work
 
 
-def _gib(nbytes: float) -> str:
-    return f"{nbytes / 2**30:.3g} GiB"
+def byte_size(nbytes: float) -> str:
+    """``nbytes`` for a message, in the largest binary unit below it: ``"1.5 GiB"``."""
+    for unit, scale in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:.3g} {unit}"
+    return f"{nbytes:.0f} bytes"
 
 
 def _check_memory(samples: int, joints: int, runs: int, record: Record, threads: int) -> None:
@@ -486,8 +491,8 @@ def _check_memory(samples: int, joints: int, runs: int, record: Record, threads:
     kind = "every sample" if record == "full" else f"record={record!r}"
     raise RunTooLargeError(
         f"t_final/dt = {samples - 1:.4g} steps x {joints} joints x {runs} run"
-        f"{'s' if runs != 1 else ''} ({kind}) would need {_gib(need)} of traces and "
-        f"workspaces, more than {MEMORY_SHARE:.0%} of the {_gib(avail)} of memory available: "
+        f"{'s' if runs != 1 else ''} ({kind}) would need {byte_size(need)} of traces and "
+        f"workspaces, more than {MEMORY_SHARE:.0%} of the {byte_size(avail)} of memory available: "
         "use record='metrics' (per-run metrics only) or record=Every(k), fewer runs, or a "
         "shorter t_final or longer dt",
         estimate=need,

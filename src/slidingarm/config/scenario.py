@@ -50,6 +50,7 @@ from slidingarm.simulate import (
     MEMORY_SHARE,
     _grid_steps,
     available_memory,
+    byte_size,
     memory_estimate,
 )
 
@@ -374,8 +375,8 @@ class Scenario(_Strict):
             "simulation.t_final",
             f"simulation.t_final / simulation.dt = {samples - 1:.4g} steps x {n} joints x "
             f"{runs} run{'s' if runs != 1 else ''} (one per controller) would need "
-            f"{need / 2**30:.3g} GiB of traces and workspaces, more than {MEMORY_SHARE:.0%} of "
-            f"the {avail / 2**30:.3g} GiB of memory available: shorten simulation.t_final or "
+            f"{byte_size(need)} of traces and workspaces, more than {MEMORY_SHARE:.0%} of "
+            f"the {byte_size(avail)} of memory available: shorten simulation.t_final or "
             'lengthen simulation.dt (a sweep of many runs should record = "metrics")',
         )
 
