@@ -230,6 +230,8 @@ BIG = "1" + "0" * 400
          "must be >= 0 and <= 1000"),
         ("p = 5\nq = 3\n", "gamma = 0.01\neps_e = 1e-320\n", "gains.eps_e",
          "must be a number >= 1e-300 (rad), got 1e-320"),
+        ("[gains]", '[[sensor.faults]]\nkind = "bias"\njoint = 1\nvalue = 1e300\n[gains]',
+         "sensor.faults[0].value", "must be a number within ±1000, got 1e+300"),
         ("[[controllers]]", '[[disturbances]]\nkind = "sinusoidal"\namplitude = 1.0\n'
          "frequency = 1000.0\n\n[[controllers]]", "disturbances[0].frequency",
          "must be below the Nyquist rate"),

@@ -28,6 +28,7 @@ from slidingarm.config.values import (
     NonNegativeVector,
     OddInt,
     Position,
+    PositionOffset,
     PositionSpread,
     PositiveFloat,
     PositiveInt,
@@ -399,7 +400,7 @@ class BiasFaultSpec(_Strict):
     kind: Literal["bias"]
     joint: PositiveInt = Field(description="Joint number, from 1.")
     t_start: NonNegativeFloat = 0.0
-    value: FiniteFloat
+    value: PositionOffset = Field(description="Offset (rad, or m), within ±1e3.")
 
 
 class StuckFaultSpec(_Strict):

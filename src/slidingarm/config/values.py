@@ -193,6 +193,12 @@ PositionSpread = Annotated[
     PlainValidator(_per_joint_check(0.0, inclusive=True, high=MAX_POSITION)),
     WithJsonSchema(_schema(0.0, inclusive=True, high=MAX_POSITION)),
 ]
+#: A position offset (rad, or m): within ±MAX_POSITION.
+PositionOffset = Annotated[
+    float,
+    _number(f"a number within ±{MAX_POSITION:g}", low=-MAX_POSITION, high=MAX_POSITION),
+    _number_schema(minimum=-MAX_POSITION, maximum=MAX_POSITION),
+]
 PositiveFloat = Annotated[
     float, _number("a number > 0", low=0.0, low_inclusive=False), _number_schema(exclusiveMinimum=0)
 ]
