@@ -7,7 +7,17 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["MAX_MODEL_BYTES", "atomic_write_bytes", "atomic_write_text", "read_model_text", "umask"]
+__all__ = [
+    "MAX_MODEL_BYTES",
+    "MAX_SCENARIO_BYTES",
+    "MAX_TABLE_BYTES",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "file_problem",
+    "read_capped_text",
+    "read_model_text",
+    "umask",
+]
 
 
 def _read_umask() -> int:
@@ -100,3 +110,71 @@ def read_model_text(source: object, what: str) -> tuple[str, Path | None, str]:
     except OSError as err:
         raise ValueError(f"cannot read {label}: {err.strerror or err}") from None
     return text, path.resolve(), label
+
+
+#: A scenario file larger than this is refused before it is read: the shipped ones are a few
+#: kB, and an inline reference table of 100 000 rows still fits.
+MAX_SCENARIO_BYTES = 16 * 2**20
+
+#: A reference table (CSV) larger than this is refused before it is read: a million samples
+#: of a seven-joint arm take about 150 MB.
+MAX_TABLE_BYTES = 256 * 2**20
+
+
+def file_problem(path: Path, what: str, max_bytes: int) -> str | None:
+    """Why ``path`` cannot be read as a ``what`` (e.g. "scenario file"), found without opening
+    it, or ``None``: it does not exist, is a folder, is not a regular file (a FIFO, which would
+    block, or a device such as ``/dev/zero``, which never ends), or is larger than
+    ``max_bytes``. The reasons are phrases for a message that names the file itself."""
+    import stat
+
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return "no such file"
+    except OSError as err:
+        return f"cannot read: {err.strerror or err}"
+    if stat.S_ISDIR(st.st_mode):
+        return f"is a directory, not a {what}"
+    if not stat.S_ISREG(st.st_mode):
+        return f"is not a regular file (a FIFO, device or socket), so not a {what}"
+    if st.st_size > max_bytes:
+        return (
+            f"is {st.st_size:,} bytes, more than the {max_bytes:,} bytes a {what} may have"
+        )
+    return None
+
+
+def read_capped_text(path: Path, what: str, max_bytes: int) -> str:
+    """The UTF-8 text of ``path``, a regular file of at most ``max_bytes``: checked by
+    :func:`file_problem`, then again on the open file, and never more than ``max_bytes + 1``
+    bytes read (a file that grows past the cap is refused). Line ends are read as
+    :meth:`pathlib.Path.read_text` reads them (``\\r\\n`` and ``\\r`` become ``\\n``).
+
+    Raises
+    ------
+    ValueError
+        With the :func:`file_problem` phrase, "is not UTF-8 text (...)" or "cannot read: ...".
+    """
+    import stat
+
+    problem = file_problem(path, what, max_bytes)
+    if problem is not None:
+        raise ValueError(problem)
+    try:
+        # non-blocking: a FIFO swapped in after the check must not hang the open
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except OSError as err:
+        raise ValueError(f"cannot read: {err.strerror or err}") from None
+    with os.fdopen(fd, "rb") as fh:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"is not a regular file (a FIFO, device or socket), so not a {what}")
+        data = fh.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise ValueError(f"is more than the {max_bytes:,} bytes a {what} may have")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise ValueError(f"is not UTF-8 text ({err})") from None
+    # universal newlines, as Path.read_text
+    return text.replace("\r\n", "\n").replace("\r", "\n")

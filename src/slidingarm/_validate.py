@@ -33,6 +33,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "MAX_POSITION",
+    "MIN_EPS_E",
     "ParameterTypeError",
     "as_real",
     "has_bool",
@@ -45,6 +47,20 @@ __all__ = [
     "positive",
     "real",
 ]
+
+
+#: The largest joint position (rad, or m for a prismatic joint) an initial state, a reference
+#: or a position-noise standard deviation may have: 1e3 rad is 159 turns, 1e3 m a kilometre of
+#: travel, beyond any arm's. It keeps squared tracking errors (about 1e6) and their integrals
+#: over any run far inside the float range, where 1e300 makes the MSE overflow to inf.
+MAX_POSITION = 1e3
+
+#: The smallest singularity guard ``eps_e`` (rad) of a terminal surface. The guarded power
+#: :math:`\max(|e|, \varepsilon_e)^{\gamma - 1}` is at most :math:`\varepsilon_e^{-1}` for
+#: :math:`0 < \gamma < 1`, so 1e-300 keeps it below 1e300, eight decades under the float
+#: maximum for the gains and rates that multiply it; a guard of 1e-320 with
+#: :math:`\gamma = 0.01` gives inf.
+MIN_EPS_E = 1e-300
 
 
 class ParameterTypeError(TypeError, ValueError):
@@ -185,12 +201,13 @@ def integer(
     value: object,
     *,
     low: float | None = None,
+    high: float | None = None,
     odd: bool = False,
     allowed: str | None = None,
     message: str | None = None,
 ) -> int:
     """``value`` as an int, checked to be an integer (:func:`is_integer`: not a boolean, not a
-    float however integral) ``>= low``, and odd with ``odd``.
+    float however integral) ``>= low`` and ``<= high``, and odd with ``odd``.
 
     Raises
     ------
@@ -200,8 +217,8 @@ def integer(
     ValueError
         ``"{name} must be {allowed}, got {value!r}"`` for an integer out of range or even.
     """
-    what = allowed or ("an odd integer" if odd else "an integer") + (
-        "" if low is None else f" >= {low:g}"
+    what = allowed or ("an odd integer" if odd else "an integer") + _bounds_text(
+        low, high, True, True
     )
     subject = _subject(name)
     if isinstance(value, bool | np.bool_):
@@ -211,7 +228,7 @@ def integer(
     if not is_integer(value):
         raise ParameterTypeError(message or f"{subject}must be {what}, got {value!r}")
     k = int(value)  # type: ignore[call-overload]
-    if (low is not None and k < low) or (odd and k % 2 == 0):
+    if (low is not None and k < low) or (high is not None and k > high) or (odd and k % 2 == 0):
         raise ValueError(message or f"{subject}must be {what}, got {value!r}")
     return k
 

@@ -78,12 +78,12 @@ def _command(*words: object) -> str:
 def _errors() -> Iterator[None]:
     """Turn the library's errors into one line on stderr and an exit status."""
     from slidingarm.config import ConfigError
-    from slidingarm.simulate import SimulationError
+    from slidingarm.simulate import RunTooLargeError, SimulationError
     from slidingarm.study.output import OutputError
 
     try:
         yield
-    except (ConfigError, OutputError) as exc:
+    except (ConfigError, OutputError, RunTooLargeError) as exc:
         _fail(str(exc), EXIT_USAGE)
     except SimulationError as exc:
         _fail(str(exc), EXIT_FAILED)
@@ -286,6 +286,40 @@ def schema() -> None:
     typer.echo(json.dumps(Scenario.model_json_schema(), indent=2, ensure_ascii=False))
 
 
-def main() -> None:
-    """Entry point of the ``slidingarm`` console script."""
-    app()
+def _click_error(name: str) -> type[Exception]:
+    """The class ``name`` of the click typer runs on (typer >= 0.22 ships its own copy of
+    click, so ``import click`` may be another module): found from typer's public
+    ``BadParameter``, a ``UsageError`` and a ``ClickException``."""
+    return next(c for c in typer.BadParameter.__mro__ if c.__name__ == name)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``slidingarm`` console script (``argv`` default: ``sys.argv[1:]``).
+
+    A usage error (a missing argument or ``--out``, an unknown option or command, a value
+    click cannot convert) prints one line, ``error: ...`` with where to find help, on stderr
+    and exits with :data:`EXIT_USAGE`, as every other user mistake does; no arguments at all
+    print the help (and exit with 2, as before).
+    """
+    usage_error = _click_error("UsageError")
+    click_error = _click_error("ClickException")
+    try:
+        code = app(args=argv, prog_name="slidingarm", standalone_mode=False)
+    except usage_error as exc:
+        ctx = getattr(exc, "ctx", None)
+        if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:
+            typer.echo(ctx.get_help(), nl=False)
+            sys.exit(EXIT_USAGE)
+        where = f"{ctx.command_path}: " if ctx is not None else ""
+        hint = f"; see '{ctx.command_path} --help'" if ctx is not None else ""
+        text = " ".join(exc.format_message().split()).rstrip(".")  # type: ignore[attr-defined]
+        typer.echo(f"error: {where}{text[:1].lower()}{text[1:]}{hint}", err=True)
+        sys.exit(EXIT_USAGE)
+    except click_error as exc:
+        text = " ".join(exc.format_message().split())  # type: ignore[attr-defined]
+        typer.echo(f"error: {text}", err=True)
+        sys.exit(getattr(exc, "exit_code", 1))
+    except typer.Abort:
+        typer.echo("error: aborted", err=True)
+        sys.exit(EXIT_FAILED)
+    sys.exit(code if isinstance(code, int) else 0)

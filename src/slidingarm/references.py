@@ -39,6 +39,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._io import MAX_TABLE_BYTES, file_problem
 from slidingarm._validate import ParameterTypeError, integer, number_array, real
 
 __all__ = [
@@ -584,7 +585,9 @@ class TableReference(Reference):
 
         An optional header row is recognised by a first field that is not a number; its first
         column must be named ``t`` or ``time``. Blank lines and lines starting with ``#`` are
-        skipped. Errors name the file, the line and the column.
+        skipped. Errors name the file, the line and the column. A path that is not a regular
+        file (a FIFO, a device) or is larger than :data:`slidingarm._io.MAX_TABLE_BYTES` is
+        refused (``ValueError``) before it is opened.
 
         Parameters
         ----------
@@ -598,6 +601,10 @@ class TableReference(Reference):
             Field separator.
         """
         p = Path(path)
+        # a FIFO would block and /dev/zero never end: regular files of a sane size only
+        problem = file_problem(p, "reference table", MAX_TABLE_BYTES)
+        if problem is not None and problem != "no such file":
+            raise ValueError(f"{p}: {problem}")
         with p.open(newline="", encoding="utf-8") as fh:
             reader = csv.reader(fh, delimiter=delimiter)
             rows = [(reader.line_num, row) for row in reader]

@@ -21,7 +21,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from slidingarm import _engine as E
-from slidingarm._validate import ParameterTypeError, integer, per_joint, plain, positive, real
+from slidingarm._validate import (
+    MAX_POSITION,
+    ParameterTypeError,
+    integer,
+    per_joint,
+    plain,
+    positive,
+    real,
+)
 
 __all__ = [
     "VELOCITY_ESTIMATORS",
@@ -147,7 +155,8 @@ VELOCITY_ESTIMATORS: dict[str, type[VelocityEstimator]] = {
 class GaussianNoise:
     """Position noise :math:`n_k \\sim \\mathcal N(0, \\sigma^2 I)`, independent per sample.
 
-    ``sigma`` (rad) is a scalar or one value per joint, ``>= 0``.
+    ``sigma`` (rad) is a scalar or one value per joint, in ``[0, MAX_POSITION]`` (1e3: no
+    measurement errs by more than a joint can travel, :data:`slidingarm._validate.MAX_POSITION`).
     """
 
     sigma: float | tuple[float, ...] = 0.0
@@ -164,6 +173,11 @@ class GaussianNoise:
             boolean=f"noise sigma must be a number (rad) or one per joint, not a boolean, "
             f"got {self.sigma!r}",
         )
+        if np.any(np.asarray(value) > MAX_POSITION):
+            raise ValueError(
+                f"noise sigma must be at most {MAX_POSITION:g} (rad, or m; no encoder errs by "
+                f"more than a joint can travel), got {self.sigma!r}"
+            )
         object.__setattr__(self, "sigma", value)
 
     def sample(self, rng: np.random.Generator, shape: tuple[int, int]) -> FloatArray:

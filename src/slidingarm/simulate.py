@@ -28,7 +28,7 @@ from numba import config
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm import _engine as E
-from slidingarm._validate import ParameterTypeError, _float, number_array
+from slidingarm._validate import MAX_POSITION, ParameterTypeError, _float, number_array
 from slidingarm._version import __version__
 from slidingarm.control.base import Controller
 from slidingarm.disturbances import (
@@ -48,8 +48,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_QD_LIMIT",
+    "MIN_DT",
     "Every",
+    "RunTooLargeError",
     "SimulationError",
+    "available_memory",
+    "byte_size",
+    "memory_estimate",
     "simulate",
     "simulate_batch",
     "time_grid",
@@ -67,9 +72,38 @@ MAX_SUBSTEPS = 1_000_000
 #: ``record="metrics"`` (a chunk's full traces live only while its metrics are computed).
 CHUNK_RUNS = 16
 
-#: A batch whose kept arrays would exceed this share of the machine's memory is refused
-#: before anything is allocated.
+#: A batch whose estimated memory (:func:`memory_estimate`) exceeds this share of the memory
+#: available (:func:`available_memory`) is refused before anything is allocated.
 MEMORY_SHARE = 0.8
+
+#: The shortest sample time (s) accepted: a 1 GHz control loop. Real digital controllers sample
+#: at 100 kHz at most, and a finite difference over a shorter step of an angle known to 1e-16
+#: carries less than nine digits; below it the grid's arithmetic stops meaning time
+#: (``dt = 5e-324`` is the smallest float).
+MIN_DT = 1e-9
+
+#: The most samples a time grid may have: ``2**53``, beyond which ``k dt`` and ``k`` no longer
+#: map one to one in float64 (long before that the memory check refuses the run).
+MAX_SAMPLES = 2**53
+
+
+class RunTooLargeError(MemoryError, ValueError):
+    """A run or batch whose estimated memory exceeds what this machine has available,
+    refused before anything is allocated. A :class:`MemoryError`, and a :class:`ValueError`
+    since the request (its duration, sample time or number of runs) is what is wrong.
+
+    Attributes
+    ----------
+    estimate : int
+        Bytes the run would need (:func:`memory_estimate`).
+    available : int
+        Bytes available when it was refused (:func:`available_memory`).
+    """
+
+    def __init__(self, message: str, *, estimate: int, available: int) -> None:
+        super().__init__(message)
+        self.estimate = estimate
+        self.available = available
 
 
 class SimulationError(RuntimeError):
@@ -101,12 +135,8 @@ class Every:
 Record = Literal["full", "metrics"] | Every
 
 
-def time_grid(t_final: float, dt: float) -> FloatArray:
-    """Sample times :math:`t_k = k\\,\\Delta t`, ``k = 0..N`` with :math:`N = t_f/\\Delta t`.
-
-    The paper's run (4.5 s at 5e-4 s) has 9000 control intervals, hence 9001 samples including
-    both ends. ``t_final`` must be a whole number of steps.
-    """
+def _grid_steps(t_final: float, dt: float) -> tuple[int, float]:
+    """``(N, dt)`` of the grid :func:`time_grid` would build, validated, without building it."""
     for name, v in (("t_final", t_final), ("dt", dt)):
         if isinstance(v, str | bytes | bool | np.bool_) or not isinstance(
             v, int | float | np.integer | np.floating
@@ -116,11 +146,33 @@ def time_grid(t_final: float, dt: float) -> FloatArray:
     h = _float(dt)
     if not (math.isfinite(h) and h > 0):
         raise ValueError(f"dt must be a finite sample time > 0 s, got {dt!r}")
+    if h < MIN_DT:
+        raise ValueError(
+            f"dt must be at least {MIN_DT:g} s (a 1 GHz control loop), got {dt!r}"
+        )
     if not (math.isfinite(tf) and tf > 0):
         raise ValueError(f"t_final must be a finite duration > 0 s, got {t_final!r}")
-    steps = round(tf / h)
+    ratio = tf / h
+    if not ratio <= MAX_SAMPLES:
+        many = f"{ratio:.3g} samples" if math.isfinite(ratio) else "beyond the float range"
+        raise ValueError(
+            f"t_final / dt = {tf:g} s / {h:g} s is {many}, more than a time grid can hold "
+            f"({MAX_SAMPLES:.3g} samples); shorten t_final or lengthen dt"
+        )
+    steps = round(ratio)
     if steps < 1 or abs(steps * h - tf) > 1e-9 * max(1.0, tf):
         raise ValueError(f"t_final ({tf:g} s) must be a whole number of steps dt ({h:g} s)")
+    return steps, h
+
+
+def time_grid(t_final: float, dt: float) -> FloatArray:
+    """Sample times :math:`t_k = k\\,\\Delta t`, ``k = 0..N`` with :math:`N = t_f/\\Delta t`.
+
+    The paper's run (4.5 s at 5e-4 s) has 9000 control intervals, hence 9001 samples including
+    both ends. ``t_final`` must be a whole number of steps, ``dt >= MIN_DT`` (1e-9 s) and
+    :math:`N \\le 2^{53}`.
+    """
+    steps, h = _grid_steps(t_final, dt)
     return np.arange(steps + 1, dtype=np.float64) * h
 
 
@@ -137,7 +189,7 @@ def _numbers(name: str, value: Any) -> FloatArray:
         raise ParameterTypeError(f"{name} must be numbers, got {kind} {value!r}") from None
 
 
-def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
+def _vectors(name: str, value: ArrayLike, n: int, bound: float = math.inf) -> FloatArray:
     arr = _numbers(name, value)
     if arr.ndim == 1:
         arr = arr[None, :]
@@ -145,6 +197,11 @@ def _vectors(name: str, value: ArrayLike, n: int) -> FloatArray:
         raise ValueError(f"{name} must have shape ({n},) or (B, {n}), got {np.shape(value)}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite")
+    if np.any(np.abs(arr) > bound):
+        worst = float(arr.flat[int(np.argmax(np.abs(arr)))])
+        raise ValueError(
+            f"{name} must lie within ±{bound:g} (rad, or m for a prismatic joint), got {worst:g}"
+        )
     return np.ascontiguousarray(arr)
 
 
@@ -354,17 +411,93 @@ def _threads(nb: int, stepped: bool) -> int:
     return 1 if stepped else max(1, min(int(config.NUMBA_NUM_THREADS), math.ceil(nb / CHUNK_RUNS)))
 
 
-def _check_memory(nbytes: int) -> None:
+def available_memory() -> int | None:
+    """Bytes of memory this process can still use: the kernel's ``MemAvailable``
+    (``/proc/meminfo``), or the free physical pages (``os.sysconf``), capped by the
+    room left under a cgroup v2 limit (a container's ``memory.max``); ``None`` where neither
+    can be read."""
+    avail: int | None = None
     try:
-        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    avail = int(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    if avail is None:
+        try:
+            avail = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES")
+        except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+            return None
+    try:
+        with open("/sys/fs/cgroup/memory.max", encoding="ascii") as fh:
+            limit = fh.read().strip()
+        if limit != "max":
+            with open("/sys/fs/cgroup/memory.current", encoding="ascii") as fh:
+                used = int(fh.read().strip())
+            avail = min(avail, max(int(limit) - used, 0))
+    except (OSError, ValueError):
+        pass
+    return avail
+
+
+def memory_estimate(
+    samples: int, joints: int, runs: int = 1, *, record: Record = "full", threads: int = 1
+) -> int:
+    """Bytes a batch allocates: its kept traces plus its workspaces.
+
+    With :math:`T` samples, :math:`n` joints, :math:`B` runs, :math:`K` kept samples
+    (:math:`T` for ``"full"``, :math:`\\lceil T/k \\rceil` for ``Every(k)``, 0 for
+    ``"metrics"``), :math:`P` threads and chunks of :math:`c = \\min(B, 16)` runs:
+
+    .. math::
+
+        8\\,T\\,(1 + 3n) + 8 \\cdot 6\\,B K n + 8\\,P\\,T n\\,(6 + 14\\,c\\,[K < T])
+
+    -- the time grid and the reference's :math:`q, \\dot q, \\ddot q`; the six recorded
+    signals (:math:`q, \\dot q`, their measurements, :math:`\\tau`, :math:`s`) of every run;
+    per thread, a run's sensor and disturbance arrays and, unless every sample is kept, a
+    chunk's full traces and the temporaries of its metrics.
+    """
+    if record == "full":
+        kept = samples
+    elif isinstance(record, Every):
+        kept = -(-samples // record.k)
+    else:
+        kept = 0
+    chunk = min(runs, CHUNK_RUNS)
+    grid = 8 * samples * (1 + 3 * joints)
+    traces = 8 * 6 * runs * kept * joints
+    work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
+    return grid + traces + work
+
+
+def byte_size(nbytes: float) -> str:
+    """``nbytes`` for a message, in the largest binary unit below it: ``"1.5 GiB"``."""
+    for unit, scale in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:.3g} {unit}"
+    return f"{nbytes:.0f} bytes"
+
+
+def _check_memory(samples: int, joints: int, runs: int, record: Record, threads: int) -> None:
+    """Refuse a batch whose :func:`memory_estimate` exceeds :data:`MEMORY_SHARE` of the
+    :func:`available_memory`, before anything is allocated."""
+    need = memory_estimate(samples, joints, runs, record=record, threads=threads)
+    avail = available_memory()
+    if avail is None or need <= MEMORY_SHARE * avail:
         return
-    if nbytes > MEMORY_SHARE * total:
-        raise MemoryError(
-            f"this batch would keep {nbytes / 2**30:.1f} GiB of traces, more than "
-            f"{MEMORY_SHARE:.0%} of this machine's {total / 2**30:.1f} GiB: use "
-            "record='metrics' (per-run metrics only) or record=Every(k), or fewer runs"
-        )
+    kind = "every sample" if record == "full" else f"record={record!r}"
+    raise RunTooLargeError(
+        f"t_final/dt = {samples - 1:.4g} steps x {joints} joints x {runs} run"
+        f"{'s' if runs != 1 else ''} ({kind}) would need {byte_size(need)} of traces and "
+        f"workspaces, more than {MEMORY_SHARE:.0%} of the {byte_size(avail)} of memory available: "
+        "use record='metrics' (per-run metrics only) or record=Every(k), fewer runs, or a "
+        "shorter t_final or longer dt",
+        estimate=need,
+        available=avail,
+    )
 
 
 def simulate_batch(
@@ -409,8 +542,10 @@ def simulate_batch(
     ------
     SimulationError
         With ``throw=True``, if any run diverges; the message names the run, time and joint.
-    MemoryError
-        If the traces to keep cannot fit in this machine's memory (before allocating).
+    RunTooLargeError
+        A :class:`MemoryError` (and :class:`ValueError`), before anything is allocated, if
+        the batch's :func:`memory_estimate` exceeds :data:`MEMORY_SHARE` of the
+        :func:`available_memory`.
     """
     if record not in ("full", "metrics") and not isinstance(record, Every):
         raise ValueError(f"record must be 'full', 'metrics' or Every(k), got {record!r}")
@@ -445,7 +580,7 @@ def simulate_batch(
     sensors = [Sensor()] if sensor is None else _listify("sensor", sensor, Sensor, "a Sensor")
     dists = _disturbance_lists(disturbances)
     limits = _torque_limits(torque_limit, n)
-    q0a = _vectors("q0", q0, n)
+    q0a = _vectors("q0", q0, n, MAX_POSITION)
     qd0a = _vectors("qd0", np.zeros(n) if qd0 is None else qd0, n)
     seed_list = _seed_list(seeds)
     counts = {
@@ -464,8 +599,12 @@ def simulate_batch(
         )
     nb = sizes.pop() if sizes else 1
 
+    steps, _h = _grid_steps(t_final, dt)
+    nt = steps + 1
+    stepped = any(isinstance(p, SteppedPlant) for p in plants)
+    nthreads = _threads(nb, stepped)
+    _check_memory(nt, n, nb, record, nthreads)
     t = time_grid(t_final, dt)
-    nt = t.shape[0]
     # parameters chosen from the control period (an automatic eps_e) are fixed now
     ctrls = [c.for_period(float(dt)) for c in ctrls]
     qr, qdr, qddr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.evaluate(t))
@@ -476,7 +615,6 @@ def simulate_batch(
             )
     stride = 1 if record == "full" else (record.k if isinstance(record, Every) else 0)
     kept = 0 if stride == 0 else len(range(0, nt, stride))
-    _check_memory(6 * nb * kept * n * 8)
     for c in ctrls:
         c.reset()
     plan = _Plan(
@@ -506,8 +644,6 @@ def simulate_batch(
         q, _qd, _qm, _qdm, tau, s = full
         return metric_values(t, q - qr[None], s, tau, status[sl, 0] != E.STATUS_OK)
 
-    stepped = any(isinstance(p, SteppedPlant) for p in plants)
-    nthreads = _threads(nb, stepped)
     if nthreads <= 1:
         parts = [work(r) for r in chunks]
     else:

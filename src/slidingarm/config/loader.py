@@ -15,6 +15,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from slidingarm._io import MAX_SCENARIO_BYTES, read_capped_text
 from slidingarm.config.errors import ConfigError, from_pydantic
 from slidingarm.config.scenario import Scenario
 
@@ -23,18 +24,25 @@ __all__ = ["load_scenario", "scenario_from_dict"]
 
 _TOML_LINE = re.compile(r"\(at line (\d+), column (\d+)\)")
 
+#: The deepest nesting of arrays and tables a scenario file may have. The deepest real one is
+#: 4 (``reference.q``, a list of lists, in a table); the limit leaves room and stops a hostile
+#: file long before the parser or the validation recurses out of the stack.
+MAX_DEPTH = 32
+
 
 def _read_toml(path: Path) -> dict[str, Any]:
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError("no such file", file=path) from None
-    except IsADirectoryError:
-        raise ConfigError("is a directory, not a scenario file", file=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read: {exc}", file=path) from None
+        text = read_capped_text(path, "scenario file", MAX_SCENARIO_BYTES)
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=path) from None
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
+    except RecursionError:
+        raise ConfigError(
+            f"invalid TOML: arrays or tables nested too deep to read (a scenario nests at most "
+            f"{MAX_DEPTH} deep)",
+            file=path,
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc)
         m = _TOML_LINE.search(msg)
@@ -44,6 +52,28 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise ConfigError(
             f"invalid TOML: {reason} (column {m.group(2)})", file=f"{path}:{m.group(1)}"
         ) from None
+    _check_depth(data, path)
+    return data
+
+
+def _check_depth(data: dict[str, Any], path: Path) -> None:
+    """Refuse arrays or tables nested more than :data:`MAX_DEPTH` deep (without recursing)."""
+    stack: list[tuple[Any, str, int]] = [(data, "", 0)]
+    while stack:
+        value, where, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise ConfigError(
+                f"arrays or tables nested more than {MAX_DEPTH} deep; a scenario file nests at "
+                "most a few (a list of lists of numbers in a table)",
+                file=path,
+                path=where,
+            )
+        if isinstance(value, dict):
+            for key, item in value.items():
+                stack.append((item, f"{where}.{key}" if where else str(key), depth + 1))
+        elif isinstance(value, list):
+            # the key path of the outermost array suffices to find it
+            stack.extend((item, where, depth + 1) for item in value)
 
 
 def _merge(
@@ -114,7 +144,8 @@ def _base_path(base_name: str, path: Path) -> Path:
     base_path = Path(base_name)
     if not base_path.is_absolute():
         base_path = path.parent / base_path
-    if base_path.is_file():
+    if base_path.exists():
+        # not only a regular file: the reader names what else it is (a FIFO, a device)
         return base_path
     shipped = _shipped_file(base_name)
     if shipped is not None:

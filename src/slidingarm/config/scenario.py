@@ -13,6 +13,8 @@ import numpy as np
 from pydantic import Field, PrivateAttr
 
 from slidingarm import robots
+from slidingarm._io import MAX_TABLE_BYTES, file_problem
+from slidingarm._validate import MAX_POSITION
 from slidingarm.config.errors import ConfigError, literal_values, tags
 from slidingarm.config.specs import (
     _CONTROLLER_CLASSES,
@@ -29,6 +31,7 @@ from slidingarm.config.specs import (
     SensorSpec,
     SimulationSpec,
     SineReferenceSpec,
+    SinusoidalDisturbanceSpec,
     TableReferenceSpec,
     VelocitySpec,
     _build_disturbance,
@@ -43,12 +46,22 @@ from slidingarm.models.planar import PlanarArm
 from slidingarm.models.serial import SerialArm
 from slidingarm.references import Reference, reference_from_dict
 from slidingarm.sensors import Sensor
-from slidingarm.simulate import time_grid
+from slidingarm.simulate import (
+    MEMORY_SHARE,
+    _grid_steps,
+    available_memory,
+    byte_size,
+    memory_estimate,
+)
 
 #: The arms a scenario builds.
 Arm = PlanarArm | SerialArm
 
 __all__ = ["Scenario", "Setup", "choices"]
+
+#: Samples of the reference evaluated at once when it is checked: validation stays within a
+#: few MB however long the run (it never allocates the traces).
+_CHECK_CHUNK = 2**15
 
 # --------------------------------------------------------------------------------------------
 # the scenario
@@ -296,11 +309,18 @@ class Scenario(_Strict):
         self._check_lengths(n)
         plant = self._build_mismatch(nominal)
         base = self._base_dir
+        sim = self.simulation
+        steps = self._guard("simulation.t_final", lambda: _grid_steps(sim.t_final, sim.dt)[0])
+        self._check_memory(steps + 1, n)
+        self._check_rates(sim.dt)
         ref_path = getattr(self.reference, "path", None)
         if ref_path is not None:
             full = Path(ref_path) if base is None else Path(base) / ref_path
-            if not full.is_file():
+            problem = file_problem(full, "reference table", MAX_TABLE_BYTES)
+            if problem == "no such file":
                 raise self._fail("reference.path", f"table file not found: {full}")
+            if problem is not None:
+                raise self._fail("reference.path", f"{full}: {problem}")
         self._check_reference_lengths(n)
         reference = self._guard(
             "reference",
@@ -311,10 +331,7 @@ class Scenario(_Strict):
         if reference.n != n:
             key = "reference.path" if ref_path is not None else "reference"
             raise self._fail(key, f"describes {reference.n} joints but the arm has {n}")
-        sim = self.simulation
-        t = self._guard("simulation.t_final", lambda: time_grid(sim.t_final, sim.dt))
-        if isinstance(nominal, SerialArm):
-            self._check_limits(nominal, reference, t)
+        self._check_reference(nominal, reference, steps, sim.dt)
         sensor = self._guard("sensor", self.sensor.build)
         disturbances = tuple(
             self._guard(f"disturbances[{i}]", partial(_build_disturbance, d))
@@ -344,6 +361,88 @@ class Scenario(_Strict):
             torque_limit=_tuple(sim.torque_limit) if sim.torque_limit is not None else None,
             seed=sim.seed,
         )
+
+    # ---------------------------------------------------------------- sizes and rates
+    def _check_memory(self, samples: int, n: int) -> None:
+        """The run's :func:`~slidingarm.simulate.memory_estimate` (every controller in one batch,
+        every sample kept) within :data:`~slidingarm.simulate.MEMORY_SHARE` of the memory
+        available, checked before anything is allocated."""
+        runs = len(self.controllers)
+        need = memory_estimate(samples, n, runs)
+        avail = available_memory()
+        if avail is None or need <= MEMORY_SHARE * avail:
+            return
+        raise self._fail(
+            "simulation.t_final",
+            f"simulation.t_final / simulation.dt = {samples - 1:.4g} steps x {n} joints x "
+            f"{runs} run{'s' if runs != 1 else ''} (one per controller) would need "
+            f"{byte_size(need)} of traces and workspaces, more than {MEMORY_SHARE:.0%} of "
+            f"the {byte_size(avail)} of memory available: shorten simulation.t_final or "
+            'lengthen simulation.dt (a sweep of many runs should record = "metrics")',
+        )
+
+    def _check_rates(self, dt: float) -> None:
+        """Frequencies below the grid's Nyquist rate :math:`1/(2\\Delta t)` (a faster sine
+        aliases to a slower one on the samples) and a quintic move of at least one sample
+        (a shorter one falls between two samples and its acceleration, of order
+        :math:`\\Delta q / D^2`, overflows)."""
+        nyquist = 0.5 / dt
+        ref = self.reference
+        checks: list[tuple[str, Any]] = []
+        if isinstance(ref, SineReferenceSpec):
+            checks.append(("reference.frequency", ref.frequency))
+        for i, d in enumerate(self.disturbances):
+            if isinstance(d, SinusoidalDisturbanceSpec):
+                checks.append((f"disturbances[{i}].frequency", d.frequency))
+        for key, value in checks:
+            worst = max(value) if isinstance(value, list) else value
+            if worst >= nyquist:
+                raise self._fail(
+                    key,
+                    f"must be below the Nyquist rate 1/(2 dt) = {nyquist:g} Hz of the grid "
+                    f"(simulation.dt = {dt:g} s), got {worst:g} Hz",
+                )
+        if isinstance(ref, QuinticReferenceSpec) and ref.duration < dt:
+            raise self._fail(
+                "reference.duration",
+                f"must be at least one sample, simulation.dt = {dt:g} s (a shorter move falls "
+                f"between two samples), got {ref.duration:g} s",
+            )
+
+    def _check_reference(self, arm: Arm, reference: Reference, steps: int, dt: float) -> None:
+        """The reference at every sample of the run, a chunk of samples at a time: finite
+        (:math:`q_d, \\dot q_d, \\ddot q_d`), within ±MAX_POSITION, and (a serial arm)
+        within the arm's finite URDF limits (:meth:`_check_limits`)."""
+        serial = isinstance(arm, SerialArm)
+        if serial:
+            assert isinstance(arm, SerialArm)
+            self._check_points(arm)
+        key = self._reference_key()
+        for lo in range(0, steps + 1, _CHECK_CHUNK):
+            t = np.arange(lo, min(lo + _CHECK_CHUNK, steps + 1), dtype=np.float64) * dt
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                values = self._guard(key, partial(reference.evaluate, t))
+            for what, a in zip(("position", "velocity", "acceleration"), values, strict=True):
+                bad = ~np.isfinite(a)
+                if np.any(bad):
+                    k, j = (int(i) for i in np.argwhere(bad)[0])
+                    raise self._fail(
+                        key,
+                        f"the reference's {what} is not finite at t = {float(t[k]):.6g} s "
+                        f"(joint {j + 1}); check its scale against the sample time",
+                    )
+            q = values[0]
+            far = np.abs(q) > MAX_POSITION
+            if np.any(far):
+                k, j = (int(i) for i in np.argwhere(far)[0])
+                raise self._fail(
+                    key,
+                    f"joint {j + 1} reaches {q[k, j]:.6g} at t = {float(t[k]):.6g} s, beyond "
+                    f"±{MAX_POSITION:g} (rad, or m)",
+                )
+            if serial:
+                assert isinstance(arm, SerialArm)
+                self._check_limits(arm, q, t)
 
     # ---------------------------------------------------------------- arm-dependent checks
     def _set_in(self, *key: str) -> Path | None:
@@ -407,26 +506,16 @@ class Scenario(_Strict):
                     f"has {len(value)} values but the arm has {n} joints (give {allowed})",
                 )
 
-    def _check_limits(self, arm: SerialArm, reference: Reference, t: Any) -> None:
-        """``q0``, the reference's own points (end points, waypoints, offset) and the reference
-        at every sample of the run stay within the arm's finite URDF position limits; the error
-        names the key, the joint and the limit."""
+    def _limit_check(self, arm: SerialArm) -> Any:
+        """``outside(q)``: the first sample and joint of ``q`` (T, n) outside the arm's finite
+        URDF position limits, as ``(k, j, side, limit)``, or ``None``."""
         lower, upper = arm.limits["lower"], arm.limits["upper"]
-        if not (np.any(np.isfinite(lower)) or np.any(np.isfinite(upper))):
-            return
         # rounding of a trajectory that touches a limit is not leaving it
         scale = np.maximum(np.abs(np.where(np.isfinite(lower), lower, 0.0)), 1.0)
         scale = np.maximum(scale, np.abs(np.where(np.isfinite(upper), upper, 0.0)))
         tol = 1e-9 * scale
 
-        def joint(j: int) -> str:
-            return f"joint {j + 1} ({arm.joint_names[j]})"
-
-        def unit(j: int) -> str:
-            return "m" if arm.joint_types[j] == "prismatic" else "rad"
-
         def outside(q: np.ndarray) -> tuple[int, int, str, float] | None:
-            """The first sample and joint of ``q`` (T, n) outside the limits."""
             below = q < lower - tol
             above = q > upper + tol
             bad = below | above
@@ -436,39 +525,64 @@ class Scenario(_Strict):
             side = "lower" if below[k, j] else "upper"
             return k, j, side, float(lower[j] if side == "lower" else upper[j])
 
+        return outside
+
+    @staticmethod
+    def _joint(arm: SerialArm, j: int) -> tuple[str, str]:
+        """``("joint 2 (shoulder)", "rad")``: a joint as messages name it, and its unit."""
+        unit = "m" if arm.joint_types[j] == "prismatic" else "rad"
+        return f"joint {j + 1} ({arm.joint_names[j]})", unit
+
+    def _check_points(self, arm: SerialArm) -> None:
+        """``q0`` and the reference's own points (end points, waypoints, offset) within the
+        arm's finite URDF position limits; the error names the key, the joint and the limit."""
+        lower, upper = arm.limits["lower"], arm.limits["upper"]
+        if not (np.any(np.isfinite(lower)) or np.any(np.isfinite(upper))):
+            return
+        outside = self._limit_check(arm)
         q0 = np.asarray(self.simulation.q0, dtype=float)[None, :]
         hit = outside(q0)
         if hit is not None:
             _, j, side, limit = hit
+            joint, unit = self._joint(arm, j)
             raise self._fail(
                 "simulation.q0",
-                f"{joint(j)} starts at {q0[0, j]:.6g} {unit(j)}, "
+                f"{joint} starts at {q0[0, j]:.6g} {unit}, "
                 f"{'below' if side == 'lower' else 'above'} its URDF {side} limit "
-                f"{limit:.6g} {unit(j)}",
+                f"{limit:.6g} {unit}",
             )
         # the reference's own points (end points, waypoints, a sine's offset), wherever they
-        # fall in time, then every sample of the run (a spline's overshoot, a sine's amplitude)
+        # fall in time; every sample of the run follows (a spline's overshoot, a sine's
+        # amplitude) in _check_limits
         for key, value in self._reference_points():
             point = np.asarray(value, dtype=float)[None, :]
             hit = outside(point)
             if hit is not None:
                 _, j, side, limit = hit
+                joint, unit = self._joint(arm, j)
                 raise self._fail(
                     f"reference.{key}",
-                    f"{joint(j)} is at {point[0, j]:.6g} {unit(j)} there, "
+                    f"{joint} is at {point[0, j]:.6g} {unit} there, "
                     f"{'below' if side == 'lower' else 'above'} its URDF {side} limit "
-                    f"{limit:.6g} {unit(j)} (the reference must stay within the joint limits)",
+                    f"{limit:.6g} {unit} (the reference must stay within the joint limits)",
                 )
-        q_ref = reference.evaluate(t)[0]
-        hit = outside(q_ref)
+
+    def _check_limits(self, arm: SerialArm, q_ref: np.ndarray, t: np.ndarray) -> None:
+        """The reference ``q_ref`` at the samples ``t`` within the arm's finite URDF position
+        limits; the error names the key, the joint, the time and the limit."""
+        lower, upper = arm.limits["lower"], arm.limits["upper"]
+        if not (np.any(np.isfinite(lower)) or np.any(np.isfinite(upper))):
+            return
+        hit = self._limit_check(arm)(q_ref)
         if hit is None:
             return
         k, j, side, limit = hit
+        joint, unit = self._joint(arm, j)
         raise self._fail(
             self._reference_key(),
-            f"{joint(j)} reaches {q_ref[k, j]:.6g} {unit(j)} at t = {float(t[k]):.6g} s, "
+            f"{joint} reaches {q_ref[k, j]:.6g} {unit} at t = {float(t[k]):.6g} s, "
             f"{'below' if side == 'lower' else 'above'} its URDF {side} limit {limit:.6g} "
-            f"{unit(j)} (the reference must stay within the joint limits)",
+            f"{unit} (the reference must stay within the joint limits)",
         )
 
     def _reference_points(self) -> list[tuple[str, Any]]:
@@ -487,6 +601,8 @@ class Scenario(_Strict):
         ref = self.reference
         if isinstance(ref, SineReferenceSpec):
             return "reference.amplitude"
+        if isinstance(ref, QuinticReferenceSpec):
+            return "reference.duration"
         if isinstance(ref, TableReferenceSpec):
             return "reference.q" if ref.q is not None else "reference.path"
         return "reference"

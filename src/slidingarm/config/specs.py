@@ -21,11 +21,15 @@ from slidingarm.config.errors import ConfigError
 from slidingarm.config.values import (
     _NAME_PATTERN,
     FiniteFloat,
+    Guard,
     NonNegativeFloat,
     NonNegativeInt,
     NonNegativePerJoint,
     NonNegativeVector,
     OddInt,
+    Position,
+    PositionOffset,
+    PositionSpread,
     PositiveFloat,
     PositiveInt,
     PositivePerJoint,
@@ -34,6 +38,8 @@ from slidingarm.config.values import (
     Real,
     RealPerJoint,
     RelativeError,
+    SampleTime,
+    Substeps,
     Switching,
     Vector,
     _Strict,
@@ -266,9 +272,12 @@ class QuinticReferenceSpec(_Strict):
     """A quintic point-to-point move."""
 
     kind: Literal["quintic"]
-    q_start: Vector
-    q_end: Vector
-    duration: PositiveFloat
+    q_start: Position = Field(description="Start (rad), within ±1e3.")
+    q_end: Position = Field(description="End (rad), within ±1e3.")
+    duration: PositiveFloat = Field(
+        description="Duration of the move (s), at least simulation.dt: a shorter move falls "
+        "between two samples and its acceleration ~ 1/duration² overflows."
+    )
     t_start: NonNegativeFloat = 0.0
 
 
@@ -276,9 +285,12 @@ class SineReferenceSpec(_Strict):
     """q_d = offset + amplitude sin(2π frequency t + phase), per joint."""
 
     kind: Literal["sine"]
-    offset: Vector
+    offset: Position = Field(description="Offset (rad), within ±1e3.")
     amplitude: RealPerJoint
-    frequency: NonNegativePerJoint
+    frequency: NonNegativePerJoint = Field(
+        description="Hz, below the Nyquist rate 1/(2 simulation.dt) of the grid: a faster sine "
+        "aliases to another on the samples."
+    )
     phase: RealPerJoint = 0.0
 
 
@@ -314,10 +326,19 @@ ReferenceSpec = Annotated[
 class SimulationSpec(_Strict):
     """Time grid, initial state, seed and actuator limits."""
 
-    t_final: PositiveFloat = Field(description="Duration (s), a whole number of dt.")
-    dt: PositiveFloat = Field(description="Sample time of the digital controller (s).")
-    substeps: PositiveInt = Field(default=1, description="RK4 steps per sample interval.")
-    q0: Vector = Field(description="Initial joint angles (rad).")
+    t_final: PositiveFloat = Field(
+        description="Duration (s), a whole number of dt; its traces (t_final/dt samples of "
+        "every controller) must fit in the memory available."
+    )
+    dt: SampleTime = Field(
+        description="Sample time of the digital controller (s), at least 1e-9 s (a 1 GHz loop)."
+    )
+    substeps: Substeps = Field(
+        default=1, description="RK4 steps per sample interval, 1 to 1000000."
+    )
+    q0: Position = Field(
+        description="Initial joint angles (rad, or m), within ±1e3 (159 turns, a kilometre)."
+    )
     qd0: Vector | None = Field(
         default=None, description="Initial joint velocities (rad/s); default rest."
     )
@@ -334,7 +355,9 @@ class SimulationSpec(_Strict):
 class NoiseSpec(_Strict):
     """Gaussian noise on the measured joint positions."""
 
-    sigma: NonNegativePerJoint = Field(description="Standard deviation (rad), scalar or per joint.")
+    sigma: PositionSpread = Field(
+        description="Standard deviation (rad), scalar or per joint, in [0, 1e3]."
+    )
 
 
 class TrueVelocitySpec(_Strict):
@@ -377,7 +400,7 @@ class BiasFaultSpec(_Strict):
     kind: Literal["bias"]
     joint: PositiveInt = Field(description="Joint number, from 1.")
     t_start: NonNegativeFloat = 0.0
-    value: FiniteFloat
+    value: PositionOffset = Field(description="Offset (rad, or m), within ±1e3.")
 
 
 class StuckFaultSpec(_Strict):
@@ -454,7 +477,9 @@ class SinusoidalDisturbanceSpec(_Strict):
 
     kind: Literal["sinusoidal"]
     amplitude: RealPerJoint
-    frequency: NonNegativeFloat = Field(default=1.0, description="Hz.")
+    frequency: NonNegativeFloat = Field(
+        default=1.0, description="Hz, below the Nyquist rate 1/(2 simulation.dt) of the grid."
+    )
     phase: FiniteFloat = 0.0
 
 
@@ -509,8 +534,10 @@ class _GainFields(_Strict):
     k2: PositivePerJoint | None = Field(
         default=None, description="Integral gain of the super-twisting reaching law."
     )
-    eps_e: PositiveFloat | None = Field(
-        default=None, description="Singularity guard: |e|^(gamma-1) evaluated at max(|e|, eps_e)."
+    eps_e: Guard | None = Field(
+        default=None,
+        description="Singularity guard: |e|^(gamma-1) evaluated at max(|e|, eps_e) (rad), at "
+        "least 1e-300 so that eps_e^(gamma-1) <= 1/eps_e stays a float.",
     )
 
     @field_validator("gamma")

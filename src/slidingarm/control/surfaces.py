@@ -24,7 +24,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from slidingarm._validate import ParameterTypeError, as_real, is_integer, per_joint, positive
+from slidingarm._validate import (
+    MIN_EPS_E,
+    ParameterTypeError,
+    as_real,
+    is_integer,
+    is_real,
+    per_joint,
+    positive,
+)
 from slidingarm.control import _kernels as CK
 
 __all__ = [
@@ -153,6 +161,26 @@ class FastTerminalSurface(Surface):
     beta: FloatArray = field(default_factory=lambda: np.array(0.0))
     gamma: float = 0.5
     eps_e: float = DEFAULT_EPS_E
+
+    def __post_init__(self) -> None:
+        # the largest guarded gain beta gamma eps_e^(gamma-1) must be a float (MIN_EPS_E)
+        eps, g = self.eps_e, self.gamma
+        if not (is_real(eps, finite=True) and is_real(g, finite=True) and eps > 0):
+            return  # the constructors' own checks name these
+        if eps < MIN_EPS_E:
+            raise ValueError(
+                f"eps_e must be >= {MIN_EPS_E:g} (the singularity guard: max(|e|, eps_e)^"
+                f"(gamma-1) <= 1/eps_e must stay a float), got {eps!r}"
+            )
+        try:
+            top = float(np.max(np.abs(self.beta))) * abs(g) * math.pow(eps, g - 1.0)
+        except OverflowError:
+            top = math.inf
+        if not math.isfinite(top):
+            raise ValueError(
+                f"eps_e = {eps!r} with gamma = {g!r} makes the guarded gain "
+                "beta gamma eps_e^(gamma-1) overflow; choose a larger eps_e"
+            )
 
     def rows(self) -> dict[int, FloatArray]:
         return {
