@@ -241,6 +241,17 @@ BIG = "1" + "0" * 400
         ('kind = "paper"',
          'kind = "sine"\noffset = [0.7, 1.5, 0.5]\namplitude = 2e5\nfrequency = 1.0',
          "reference.amplitude", "joint 1 reaches 1257.33 at t = 0.001 s, beyond ±1000"),
+        # an arm no value of which can be meant (it overflowed the control effort to inf)
+        ('preset = "paper"', "masses = [1e300, 1, 1]\nlengths = [0.5, 1, 1]", "plant",
+         "masses must be > 0 and <= 1e+06 kg"),
+        ('preset = "paper"', "masses = [1, 1, 1]\nlengths = [1e300, 1, 1]", "plant",
+         "lengths must be > 0 and <= 1000 m"),
+        ("[reference]", "[mismatch]\nlength_error = 1e300\n[reference]", "mismatch",
+         "scale factors must be > 0 and <= 1000"),
+        ("[reference]", "[mismatch]\nmass_error = 1e300\n[reference]", "mismatch",
+         "scale factors must be > 0 and <= 1000"),
+        ("[reference]", "[mismatch]\npayload = 1e300\n[reference]", "mismatch",
+         "payload mass must be >= 0 and <= 1e+06 kg"),
     ],
 )  # fmt: skip
 def test_overflowing_and_absurd_numbers_are_refused_at_validate_time(
@@ -297,6 +308,32 @@ def test_python_refuses_the_same_numbers_with_value_errors() -> None:
 
 
 @pytest.mark.filterwarnings("ignore:overflow:RuntimeWarning", "ignore:invalid:RuntimeWarning")
+def test_arms_refuse_parameters_no_arm_can_have() -> None:
+    """Physical bounds of both arm kinds (slidingarm.models.base.MAX_*), and the bounds
+    themselves accepted."""
+    from slidingarm.models.base import MAX_GRAVITY, MAX_MASS, MAX_SCALE
+
+    planar = sa.PlanarArm.paper()
+    ur5 = sa.robots.load("ur5")
+    with pytest.raises(ValueError, match=r"masses must be > 0 and <= 1e\+06 kg"):
+        sa.PlanarArm([1e300, 1.0, 1.0], [0.5, 1.0, 1.0])
+    with pytest.raises(ValueError, match=r"inertia must be >= 0 and <= 1e\+09"):
+        sa.PlanarArm([1.0, 1.0, 1.0], [0.5, 1.0, 1.0], inertia=[1e300, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"gravity must be >= 0 and <= 1000"):
+        sa.PlanarArm([1.0, 1.0, 1.0], [0.5, 1.0, 1.0], gravity=1e300)
+    with pytest.raises(ValueError, match=r"gravity must be a number in \[0, 1000\]"):
+        ur5.replace(gravity=1e300)
+    for arm in (planar, ur5):
+        with pytest.raises(ValueError, match=r"payload mass must be >= 0 and <= 1e\+06 kg"):
+            arm.with_payload(1e300)
+        for kw in ({"mass": 1e300}, {"length": 1e300}):
+            with pytest.raises(ValueError, match=r"factors must be > 0 and <= 1000"):
+                arm.scaled(**kw)
+        arm.scaled(mass=MAX_SCALE)
+        arm.with_payload(MAX_MASS - 10.0)  # the link keeps its own few kg
+    ur5.replace(gravity=MAX_GRAVITY)
+
+
 def test_references_too_fast_for_the_grid_fail_in_python_as_value_errors() -> None:
     arm = sa.PlanarArm.paper()
     ctrl = sa.PDSMC(arm, lam=2.0, k=20.0)

@@ -22,18 +22,18 @@ def _m(text: str) -> str:
 @pytest.mark.parametrize("masses", [(1.0, 0.0, 1.0), (1.0, -2.0, 1.0), (-1e-300,)])
 def test_non_positive_mass(masses: tuple[float, ...]) -> None:
     lengths = (1.0,) * len(masses)
-    with pytest.raises(ValueError, match=_m("masses must be > 0 kg, got [")):
+    with pytest.raises(ValueError, match=_m("masses must be > 0 and <= 1e+06 kg, got [")):
         PlanarArm(masses, lengths)
 
 
 @pytest.mark.parametrize("lengths", [(0.5, 0.0, 1.0), (0.5, 1.0, -1.0)])
 def test_non_positive_length(lengths: tuple[float, ...]) -> None:
-    with pytest.raises(ValueError, match=_m("lengths must be > 0 m, got [")):
+    with pytest.raises(ValueError, match=_m("lengths must be > 0 and <= 1000 m, got [")):
         PlanarArm(M3, lengths)
 
 
 def test_negative_inertia() -> None:
-    with pytest.raises(ValueError, match=_m("inertia must be >= 0 kg m², got [0.1, -0.01, 0.1]")):
+    with pytest.raises(ValueError, match=_m("inertia must be >= 0 and <= 1e+09 kg m², got [0.1, -0.01, 0.1]")):
         PlanarArm(M3, L3, inertia=(0.1, -0.01, 0.1))
 
 
@@ -123,7 +123,7 @@ def test_bad_mass_model(model: object) -> None:
 
 @pytest.mark.parametrize("gravity", [-9.81, -1e-300, np.nan, np.inf, -np.inf])
 def test_bad_gravity_value(gravity: float) -> None:
-    with pytest.raises(ValueError, match=_m("gravity must be a finite value >= 0 m/s², got")):
+    with pytest.raises(ValueError, match=_m("gravity must be >= 0 and <= 1000 m/s², got")):
         PlanarArm(M3, L3, gravity=gravity)
 
 
@@ -205,7 +205,7 @@ def test_single_state_broadcasts_against_any_batch() -> None:
 # ---------------------------------------------------------------------- derived arms
 @pytest.mark.parametrize("mass", [-0.1, np.nan, np.inf])
 def test_bad_payload(mass: float) -> None:
-    with pytest.raises(ValueError, match=_m("payload mass must be a finite value >= 0 kg, got")):
+    with pytest.raises(ValueError, match=_m("payload mass must be >= 0 and <= 1e+06 kg, got")):
         ARM.with_payload(mass)
 
 
@@ -280,8 +280,8 @@ def test_arm_numbers_are_numbers() -> None:
     with pytest.raises(TypeError, match=r"^payload mass must be a number \(kg\), got '1'$"):
         ARM.with_payload("1")  # type: ignore[arg-type]
     for call, match in [
-        (lambda: PlanarArm([1.0], [1.0], gravity=10**400), r"^gravity must be a finite value"),
-        (lambda: ARM.with_payload(10**400), r"^payload mass must be a finite value"),
+        (lambda: PlanarArm([1.0], [1.0], gravity=10**400), r"^gravity must be >= 0"),
+        (lambda: ARM.with_payload(10**400), r"^payload mass must be >= 0"),
         (lambda: PlanarArm([10**400], [1.0]), r"^masses must be finite, got \[inf\]$"),
         (lambda: ARM.mass_matrix([10**400, 0, 0]), r"^q must be finite \(no NaN or inf\)$"),
     ]:

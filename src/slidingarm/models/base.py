@@ -20,7 +20,20 @@ from numpy.typing import ArrayLike, NDArray
 from slidingarm._validate import ParameterTypeError, number_array
 from slidingarm.models import _dispatch as D
 
-__all__ = ["ArmModel", "ModelHandle"]
+__all__ = [
+    "MAX_GRAVITY", "MAX_INERTIA", "MAX_LENGTH", "MAX_MASS", "MAX_SCALE", "ArmModel", "ModelHandle",
+]  # fmt: skip
+
+#: Physical bounds of an arm's parameters: beyond them a value cannot be meant (a link of
+#: a thousand tonnes or a kilometre, gravity beyond the Sun's 274 m/s²) and the dynamics would
+#: overflow a float long before a run ends.
+MAX_MASS = 1e6  # kg, also the payload
+MAX_LENGTH = 1e3  # m
+MAX_INERTIA = 1e9  # kg m²
+MAX_GRAVITY = 1e3  # m/s²
+#: Largest factor of :meth:`PlanarArm.scaled` (a relative model error of at most 1e3 - 1).
+MAX_SCALE = 1e3
+
 
 FloatArray = NDArray[np.float64]
 

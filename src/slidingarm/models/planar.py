@@ -20,7 +20,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from slidingarm._validate import ParameterTypeError, _float, is_real, number_array
 from slidingarm.models import _dispatch as D
-from slidingarm.models.base import ArmModel
+from slidingarm.models.base import (
+    MAX_GRAVITY,
+    MAX_INERTIA,
+    MAX_LENGTH,
+    MAX_MASS,
+    MAX_SCALE,
+    ArmModel,
+)
 
 __all__ = ["MassModel", "PlanarArm"]
 
@@ -104,10 +111,10 @@ class PlanarArm(ArmModel):
         if n < 1:
             raise ValueError("masses must have at least one value (an arm has n >= 1 links)")
         ln = _vector("lengths", lengths, n)
-        if np.any(m <= 0):
-            raise ValueError(f"masses must be > 0 kg, got {m.tolist()}")
-        if np.any(ln <= 0):
-            raise ValueError(f"lengths must be > 0 m, got {ln.tolist()}")
+        if np.any(m <= 0) or np.any(m > MAX_MASS):
+            raise ValueError(f"masses must be > 0 and <= {MAX_MASS:g} kg, got {m.tolist()}")
+        if np.any(ln <= 0) or np.any(ln > MAX_LENGTH):
+            raise ValueError(f"lengths must be > 0 and <= {MAX_LENGTH:g} m, got {ln.tolist()}")
         if mass_model not in ("point", "rod"):
             raise ValueError(f"mass_model must be 'point' or 'rod', got {mass_model!r}")
         if com is None:
@@ -123,13 +130,15 @@ class PlanarArm(ArmModel):
             inert = np.zeros(n) if mass_model == "point" else m * ln**2 / 12.0
         else:
             inert = _vector("inertia", inertia, n)
-            if np.any(inert < 0):
-                raise ValueError(f"inertia must be >= 0 kg m², got {inert.tolist()}")
+            if np.any(inert < 0) or np.any(inert > MAX_INERTIA):
+                raise ValueError(
+                    f"inertia must be >= 0 and <= {MAX_INERTIA:g} kg m², got {inert.tolist()}"
+                )
         if not is_real(gravity):
             raise ParameterTypeError(f"gravity must be a number, got {gravity!r}")
         g = _float(gravity)
-        if not np.isfinite(g) or g < 0:
-            raise ValueError(f"gravity must be a finite value >= 0 m/s², got {gravity!r}")
+        if not np.isfinite(g) or g < 0 or g > MAX_GRAVITY:
+            raise ValueError(f"gravity must be >= 0 and <= {MAX_GRAVITY:g} m/s², got {gravity!r}")
         idle = np.flatnonzero((c == 0) & (inert == 0))
         if idle.size:
             raise ValueError(
@@ -200,8 +209,8 @@ class PlanarArm(ArmModel):
         if not is_real(mass):
             raise ParameterTypeError(f"payload mass must be a number (kg), got {mass!r}")
         p = _float(mass)
-        if not np.isfinite(p) or p < 0:
-            raise ValueError(f"payload mass must be a finite value >= 0 kg, got {mass!r}")
+        if not np.isfinite(p) or p < 0 or p > MAX_MASS:
+            raise ValueError(f"payload mass must be >= 0 and <= {MAX_MASS:g} kg, got {mass!r}")
         m, ln, c, inert = (
             a.copy() for a in (self._masses, self._lengths, self._com, self._inertia)
         )
@@ -231,8 +240,12 @@ class PlanarArm(ArmModel):
                     f"{name} must be one value or {self.n} (one per link), got {f.shape[0]}"
                 )
         fm, fl = (np.broadcast_to(f, (self.n,)).astype(float) for f in factors.values())
-        if np.any(fm <= 0) or np.any(fl <= 0):
-            raise ValueError("mass and length scale factors must be > 0")
+        if np.any(fm <= 0) or np.any(fl <= 0) or np.any(fm > MAX_SCALE) or np.any(fl > MAX_SCALE):
+            raise ValueError(
+                f"mass and length scale factors must be > 0 and <= {MAX_SCALE:g} (a model off by "
+                f"more than {MAX_SCALE:g}x is not a model error), got mass {fm.tolist()}, length "
+                f"{fl.tolist()}"
+            )
         return PlanarArm(
             self._masses * fm,
             self._lengths * fl,

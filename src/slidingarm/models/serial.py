@@ -32,7 +32,7 @@ from slidingarm._io import read_model_text
 from slidingarm._validate import ParameterTypeError, _float, is_real, number_array, real
 from slidingarm.models import _dispatch as D
 from slidingarm.models import _spatial as SK
-from slidingarm.models.base import ArmModel
+from slidingarm.models.base import MAX_GRAVITY, MAX_MASS, MAX_SCALE, ArmModel
 
 __all__ = ["SerialArm"]
 
@@ -276,7 +276,7 @@ class SerialArm(ArmModel):
                 raise ValueError(f"joint {joints[i]!r}: its table kind disagrees with {types[i]!r}")
             if arr[SK.P_MASS, i] < 0:
                 raise ValueError(f"link {links[i]!r} has a negative mass {arr[SK.P_MASS, i]}")
-        g = real("gravity", gravity, low=0.0)
+        g = real("gravity", gravity, low=0.0, high=MAX_GRAVITY)
         fr: dict[str, tuple[int, FloatArray, FloatArray]] = {}
         for key, (body, rot, org) in frames.items():
             r = np.array(rot, dtype=float).reshape(3, 3)
@@ -490,8 +490,8 @@ class SerialArm(ArmModel):
         if not is_real(mass):
             raise ParameterTypeError(f"payload mass must be a number (kg), got {mass!r}")
         p = _float(mass)
-        if not np.isfinite(p) or p < 0:
-            raise ValueError(f"payload mass must be a finite value >= 0 kg, got {mass!r}")
+        if not np.isfinite(p) or p < 0 or p > MAX_MASS:
+            raise ValueError(f"payload mass must be >= 0 and <= {MAX_MASS:g} kg, got {mass!r}")
         name = self._tool if link is None else link
         if not isinstance(name, str) or name not in self._frames:
             raise ValueError(
@@ -813,8 +813,11 @@ def _factors(name: str, value: ArrayLike, n: int) -> FloatArray:
         raise ParameterTypeError(f"{name} must be a number or {n} numbers, got {value!r}") from None
     if arr.ndim != 1 or arr.shape[0] not in (1, n):
         raise ValueError(f"{name} must be one value or {n} (one per body), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-        raise ValueError(f"{name} factors must be finite and > 0, got {arr.tolist()}")
+    if not np.all(np.isfinite(arr)) or np.any(arr <= 0) or np.any(arr > MAX_SCALE):
+        raise ValueError(
+            f"{name} factors must be > 0 and <= {MAX_SCALE:g} (a model off by more than "
+            f"{MAX_SCALE:g}x is not a model error), got {arr.tolist()}"
+        )
     return np.broadcast_to(arr, (n,)).copy()
 
 
