@@ -1,0 +1,156 @@
+"""Figures of a tuning (:func:`slidingarm.tune`): the Pareto front against every trial.
+
+Pure drawing from the trials table (``trials.csv``, :attr:`slidingarm.tune.TuneResult.trials`);
+no computation beyond choosing axis scales, no pyplot, no ``show()``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.ticker import NullLocator
+
+from slidingarm.plotting._style import RC, PowerOfTenFormatter
+
+__all__ = ["FRONT_COLOR", "plot_pareto"]
+
+#: Colour of the Pareto front (Okabe–Ito blue); other trials are grey.
+FRONT_COLOR = "#0072B2"
+_OTHER = "#9A9A9A"
+_INFEASIBLE = "#D55E00"
+_COLUMNS = 3
+
+
+def _log_scale(values: np.ndarray) -> bool:
+    """A log axis when every value is positive and they span more than two decades."""
+    v = values[np.isfinite(values)]
+    return bool(v.size and np.all(v > 0) and v.max() / v.min() > 100.0)
+
+
+def _set_log(axis: Any) -> None:
+    """A log axis labelled ``10ⁿ`` in plain Unicode (mathtext costs most of a figure's time)."""
+    axis.set_major_formatter(PowerOfTenFormatter())
+    axis.set_minor_formatter(PowerOfTenFormatter(labelOnlyBase=False))
+    axis.set_minor_locator(NullLocator())
+
+
+def _axes(count: int, ax: Axes | Sequence[Axes] | None) -> tuple[Figure, list[Axes]]:
+    if ax is not None:
+        axes = [ax] if isinstance(ax, Axes) else list(ax)
+        if len(axes) != count:
+            raise ValueError(f"ax: this figure draws {count} panel(s), got {len(axes)} axes")
+        fig = axes[0].get_figure()
+        assert isinstance(fig, Figure)
+        return fig, axes
+    cols = min(count, _COLUMNS)
+    rows = math.ceil(count / cols)
+    fig = Figure(figsize=(3.6 * cols + 0.6, 3.3 * rows + 0.5), layout="constrained")
+    grid = fig.subplots(rows, cols, squeeze=False)
+    axes = list(grid.ravel())
+    for extra in axes[count:]:
+        extra.set_visible(False)
+    return fig, axes[:count]
+
+
+def plot_pareto(
+    trials: pd.DataFrame,
+    objectives: Sequence[str],
+    *,
+    best: int | None = None,
+    title: str | None = None,
+    ax: Axes | Sequence[Axes] | None = None,
+) -> Figure:
+    """The trials of a tuning in each pair of objectives, the Pareto front highlighted.
+
+    With one objective, the objective of each trial against its number and the best value so
+    far. Failed trials (no values) are not drawn; infeasible ones (outside the limits) are
+    crosses.
+
+    Parameters
+    ----------
+    trials : DataFrame
+        Columns ``trial``, ``state``, ``feasible``, ``pareto`` and each objective.
+    objectives : sequence of str
+        The objectives, in order.
+    best : int, optional
+        A trial to mark with a star (e.g. :attr:`~slidingarm.tune.TuneResult.best`).
+    title : str, optional
+        The figure's title.
+    ax : Axes or sequence of Axes, optional
+        One Axes per panel (``m (m - 1) / 2`` for ``m >= 2`` objectives, else one).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    names = list(objectives)
+    pairs = list(itertools.combinations(range(len(names)), 2)) if len(names) > 1 else []
+    with matplotlib.rc_context(RC):
+        fig, axes = _axes(max(len(pairs), 1), ax)
+        done = trials[trials["state"] == "complete"]
+        feasible = done["feasible"].astype(bool).to_numpy()
+        front = done["pareto"].astype(bool).to_numpy()
+        if not pairs:
+            a = axes[0]
+            y = done[names[0]].to_numpy(dtype=np.float64)
+            x = done["trial"].to_numpy()
+            a.scatter(x[feasible & ~front], y[feasible & ~front], s=12, color=_OTHER, label="trial")
+            a.scatter(
+                x[~feasible], y[~feasible], s=14, marker="x", color=_INFEASIBLE, label="infeasible"
+            )
+            if feasible.any():
+                order = np.argsort(x[feasible], kind="stable")
+                running = np.minimum.accumulate(y[feasible][order])
+                a.step(
+                    x[feasible][order],
+                    running,
+                    where="post",
+                    color=FRONT_COLOR,
+                    label="best so far",
+                )
+            a.set_xlabel("trial")
+            a.set_ylabel(names[0])
+            if _log_scale(y):
+                a.set_yscale("log")
+                _set_log(a.yaxis)
+        for a, (i, j) in zip(axes, pairs, strict=False):
+            x = done[names[i]].to_numpy(dtype=np.float64)
+            y = done[names[j]].to_numpy(dtype=np.float64)
+            other = feasible & ~front
+            a.scatter(
+                x[other], y[other], s=10, color=_OTHER, alpha=0.7, label="trial", linewidths=0
+            )
+            if (~feasible).any():
+                a.scatter(x[~feasible], y[~feasible], s=14, marker="x", color=_INFEASIBLE,
+                          alpha=0.7, label="infeasible")  # fmt: skip
+            a.scatter(x[front], y[front], s=22, color=FRONT_COLOR, label="Pareto front", zorder=3)
+            if best is not None:
+                hit = (done["trial"] == best).to_numpy()
+                a.scatter(x[hit], y[hit], s=120, marker="*", color="black", label=f"trial {best}",
+                          zorder=4)  # fmt: skip
+            a.set_xlabel(names[i])
+            a.set_ylabel(names[j])
+            if _log_scale(x):
+                a.set_xscale("log")
+                _set_log(a.xaxis)
+            if _log_scale(y):
+                a.set_yscale("log")
+                _set_log(a.yaxis)
+            a.margins(0.06)
+        handles: dict[str, Any] = {}
+        for a in axes:
+            for h, lab in zip(*a.get_legend_handles_labels(), strict=True):
+                handles.setdefault(lab, h)
+        if handles:
+            axes[0].legend(list(handles.values()), list(handles), loc="best", fontsize="small")
+        if title:
+            fig.suptitle(title)
+    return fig

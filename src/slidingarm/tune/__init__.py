@@ -1,0 +1,36 @@
+"""Gain tuning (:func:`tune`): optuna over a controller's gains, objectives from the metrics.
+
+- :mod:`~slidingarm.tune.space` — the gain space of a controller (intervals from the class's
+  validated ranges and the scenario's values; ``bounds`` overrides);
+- :mod:`~slidingarm.tune.evaluate` — a trial's scenario, its run(s) and its score;
+- :mod:`~slidingarm.tune.tuning` — :func:`tune`, resumable from its folder, and
+  :class:`TuneResult` (trials, Pareto front, export of a trial as a scenario file).
+"""
+
+from slidingarm.tune.evaluate import STATISTICS, Score, reduce, score, tuning_scenario, with_gains
+from slidingarm.tune.space import GainBound, GainSpace, gain_space, parse_bound
+from slidingarm.tune.tuning import (
+    DEFAULT_OBJECTIVES,
+    DEFAULT_POPULATION,
+    SAMPLERS,
+    TuneResult,
+    tune,
+)
+
+__all__ = [
+    "DEFAULT_OBJECTIVES",
+    "DEFAULT_POPULATION",
+    "SAMPLERS",
+    "STATISTICS",
+    "GainBound",
+    "GainSpace",
+    "Score",
+    "TuneResult",
+    "gain_space",
+    "parse_bound",
+    "reduce",
+    "score",
+    "tune",
+    "tuning_scenario",
+    "with_gains",
+]
