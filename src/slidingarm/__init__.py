@@ -49,6 +49,7 @@ from slidingarm.sensors import (
     TrueVelocity,
 )
 from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
+from slidingarm.tune import TuneResult, tune  # the function shadows the subpackage's name
 
 __all__ = [
     "FTSMC",
@@ -89,6 +90,7 @@ __all__ = [
     "SteppedPlant",
     "TableReference",
     "TrueVelocity",
+    "TuneResult",
     "__version__",
     "check_controller",
     "ftsm_convergence_time",
@@ -96,4 +98,5 @@ __all__ = [
     "simulate",
     "simulate_batch",
     "tsm_convergence_time",
+    "tune",
 ]

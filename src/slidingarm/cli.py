@@ -249,6 +249,145 @@ def schema() -> None:
     typer.echo(json.dumps(Scenario.model_json_schema(), indent=2, ensure_ascii=False))
 
 
+def _pareto_lines(result: Any, limit: int = 20) -> list[str]:
+    """The Pareto front as text: trial, gains, objectives; the knee marked ``*``."""
+    front = result.pareto
+    if front.empty:
+        return []
+    best = result.best
+    names = [*result.space.names, *result.objectives]
+    lines = ["  trial " + "".join(f"{n:>13}" for n in names)]
+    for _, row in front.head(limit).iterrows():
+        mark = "*" if int(row["trial"]) == best else " "
+        lines.append(
+            f"{mark}{int(row['trial']):>6} " + "".join(f"{float(row[n]):>13.5g}" for n in names)
+        )
+    if len(front) > limit:
+        lines.append(f"  ... {len(front) - limit} more in {result.out_dir / 'pareto.csv'}")
+    lines.append(f"  * the knee (--export best): trial {best}")
+    return lines
+
+
+def _pairs(values: list[str] | None, option: str) -> dict[str, float]:
+    from slidingarm.config import ConfigError
+
+    out: dict[str, float] = {}
+    for text in values or []:
+        name, sep, value = text.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if not sep or not name.strip() or number != number:
+            raise ConfigError(f"expected METRIC=VALUE, got {text!r}", path=option)
+        out[name.strip()] = number
+    return out
+
+
+@app.command()
+def tune(
+    config: Annotated[
+        str, typer.Argument(help="Scenario file, or the name of a shipped scenario.")
+    ],
+    controller: Annotated[
+        str,
+        typer.Option(
+            "--controller",
+            "-c",
+            help="The controller to tune: a label of the scenario, or a class (pdsmc, tsmc, "
+            "ftsmc, ntsmc) added with its shared gains.",
+        ),
+    ],
+    trials: Annotated[int, typer.Option("--trials", "-n", min=1, help="Total trial budget.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Tuning folder (resumed if it exists).")],
+    objectives: Annotated[
+        str, typer.Option("--objectives", help="Metrics to minimise, comma-separated.")
+    ] = "mse,chattering,peak_torque",
+    robust: Annotated[
+        int,
+        typer.Option(
+            "--robust", min=0, help="Score each trial on the scenario's [sweep] draws 0..K-1."
+        ),
+    ] = 0,
+    statistic: Annotated[
+        str, typer.Option("--statistic", help="Reduction over the draws: mean or p90.")
+    ] = "mean",
+    bound: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--bound", help="Gain interval NAME=LOW:HIGH[:log|linear] or NAME=fixed (repeat)."
+        ),
+    ] = None,
+    limit: Annotated[
+        list[str] | None,
+        typer.Option("--limit", help="Constraint METRIC=VALUE: metric <= value (repeat)."),
+    ] = None,
+    export: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--export", help="Write trial TRIAL (or 'best', the knee) as a scenario file (repeat)."
+        ),
+    ] = None,
+    sampler: Annotated[str, typer.Option("--sampler", help="nsga2 or tpe.")] = "nsga2",
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the sampler.")] = 0,
+    population: Annotated[
+        int, typer.Option("--population", min=2, help="NSGA-II's population size.")
+    ] = 20,
+) -> None:
+    """Tune one controller's gains with optuna: Pareto front, figure, exports; resumable."""
+    from slidingarm.config import ConfigError
+    from slidingarm.tune import parse_bound
+    from slidingarm.tune import tune as run_tuning
+
+    with _errors():
+        scenario = _load(config)
+        bounds = dict(parse_bound(b) for b in bound or [])
+        limits = _pairs(limit, "--limit")
+        wanted: list[int | str] = []
+        for e in export or []:
+            if e != "best" and not e.isdigit():
+                raise ConfigError(f"expected a trial number or 'best', got {e!r}", path="--export")
+            wanted.append("best" if e == "best" else int(e))
+        names = [o.strip() for o in objectives.split(",") if o.strip()]
+        try:
+            with _progress() as progress:
+                result = run_tuning(
+                    scenario,
+                    controller=controller,
+                    trials=trials,
+                    out=out,
+                    objectives=names,
+                    bounds=bounds,
+                    limits=limits,
+                    robust=robust,
+                    statistic=statistic,  # type: ignore[arg-type]
+                    sampler=sampler,  # type: ignore[arg-type]
+                    seed=seed,
+                    population=population,
+                    progress=progress,
+                )
+        except KeyboardInterrupt:
+            _fail(
+                f"interrupted; the finished trials are kept in {out}: rerun the same command to "
+                "resume",
+                EXIT_INTERRUPTED,
+            )
+    typer.echo(
+        f"tuned {result.controller} of {scenario.key} in {out}: {result.message} "
+        f"({result.ran} run now, {result.kept} kept) in {result.runtime_s:.1f} s"
+    )
+    for line in _pareto_lines(result):
+        typer.echo(line)
+    if not result.ok:
+        _fail(result.message, EXIT_FAILED)
+    for k in wanted:
+        try:
+            path = result.export(k)  # type: ignore[arg-type]
+        except ValueError as exc:
+            _fail(f"--export {k}: {exc}", EXIT_USAGE)
+        typer.echo(f"exported {path} (slidingarm run {path} --out DIR)")
+
+
 def main() -> None:
     """Entry point of the ``slidingarm`` console script."""
     app()

@@ -30,9 +30,11 @@ as an uninterrupted one.
 ``TrialState.FAIL`` with the user attribute ``failure`` (the run's message); it counts toward the
 budget, is listed in ``trials.csv`` with state ``failed``, and the samplers ignore it.
 
-**Limits.** ``limits={"peak_torque": 60}`` makes :math:`m \\le 60` a constraint (optuna's
-``constraints_func``: :math:`c = m - \\text{limit} \\le 0`) on the same reduced metric the
-objectives use; the Pareto front holds feasible trials only.
+**Limits.** ``limits={"peak_torque": 60}`` makes :math:`m \\le 60` a constraint on the same
+reduced metric the objectives use, set on each complete trial with optuna's
+``Trial.set_constraint`` as :math:`c = m - \\text{limit} \\le 0` (the samplers' own
+``constraints_func`` is deprecated in optuna 5); NSGA-II and TPE rank infeasible trials behind
+feasible ones, and the Pareto front holds feasible trials only.
 """
 
 from __future__ import annotations
@@ -414,16 +416,12 @@ def _trial_seed(seed: int, k: int) -> int:
     return int(np.random.SeedSequence(seed, spawn_key=(k,)).generate_state(1, dtype=np.uint32)[0])
 
 
-def _make_sampler(
-    name: str, seed: int, population: int, constraints: Callable[[Any], Sequence[float]] | None
-) -> optuna.samplers.BaseSampler:
+def _make_sampler(name: str, seed: int, population: int) -> optuna.samplers.BaseSampler:
     import optuna
 
     if name == "nsga2":
-        return optuna.samplers.NSGAIISampler(
-            population_size=population, seed=seed, constraints_func=constraints
-        )
-    return optuna.samplers.TPESampler(seed=seed, multivariate=True, constraints_func=constraints)
+        return optuna.samplers.NSGAIISampler(population_size=population, seed=seed)
+    return optuna.samplers.TPESampler(seed=seed, multivariate=True)
 
 
 def _validate(
@@ -576,6 +574,7 @@ def tune(
     sampler: Sampler = "nsga2",
     seed: int = 0,
     population: int = DEFAULT_POPULATION,
+    figure: bool = True,
     progress: Progress | None = None,
 ) -> TuneResult:
     """Tune one controller's gains of a scenario for the Pareto front of ``objectives``.
@@ -608,6 +607,8 @@ def tune(
         Seed of the samplers (trial ``k``: ``SeedSequence(seed, spawn_key=(k,))``).
     population : int
         NSGA-II's population size (default :data:`DEFAULT_POPULATION`).
+    figure : bool
+        Draw ``pareto.png``/``.svg`` (about a second; the tables are always written).
     progress : callable, optional
         ``progress(what, done, total)`` after each trial.
 
@@ -652,10 +653,6 @@ def tune(
     )
     out_dir = Path(out)
 
-    def constraints(t: Any) -> Sequence[float]:
-        metrics = t.user_attrs["metrics"]
-        return [float(metrics[n]) - float(v) for n, v in limits.items()]
-
     import optuna
     from optuna.storages import JournalStorage
     from optuna.storages.journal import JournalFileBackend
@@ -674,14 +671,14 @@ def tune(
         distributions = space.distributions()
         ran = 0
         for k in range(kept, trials):
-            study.sampler = _make_sampler(
-                sampler, _trial_seed(seed, k), population, constraints if limits else None
-            )
+            study.sampler = _make_sampler(sampler, _trial_seed(seed, k), population)
             trial = study.ask(distributions)
             trial.set_user_attr("index", k)
             result = evaluate(base, dict(trial.params), robust, statistic)
             if result.ok:
                 trial.set_user_attr("metrics", result.values)
+                for name, value in limits.items():
+                    trial.set_constraint(name, result.values[name] - value)
                 study.tell(trial, [result.values[name] for name in objectives])
             else:
                 trial.set_user_attr("failure", result.message)
@@ -690,7 +687,7 @@ def tune(
             if progress is not None:
                 progress(f"{label}: trial {k}", k + 1, trials)
         table, _front = _table(study, space, limits)
-    files = _write_outputs(out_dir, table, objectives)
+    files = _write_outputs(out_dir, table, objectives, figure=figure)
     pareto = _pareto(table, objectives)
     complete = int((table["state"] == "complete").sum())
     if complete == 0:
@@ -749,13 +746,18 @@ def _pareto(table: pd.DataFrame, objectives: Sequence[str]) -> pd.DataFrame:
     return front[keep].sort_values([*objectives, "trial"], kind="stable").reset_index(drop=True)
 
 
-def _write_outputs(out: Path, table: pd.DataFrame, objectives: Sequence[str]) -> list[Path]:
+def _write_outputs(
+    out: Path, table: pd.DataFrame, objectives: Sequence[str], *, figure: bool
+) -> list[Path]:
     from slidingarm.plotting import save_figure
     from slidingarm.plotting.tune import plot_pareto
 
     atomic_write_text(out / TRIALS, _csv(table))
     front = _pareto(table, objectives)
     atomic_write_text(out / PARETO, _csv(front))
-    best = None if front.empty else knee(front, objectives)
-    figure = save_figure(plot_pareto(table, objectives, best=best), out / FIGURE)
-    return [Path(TRIALS), Path(PARETO), *(p.relative_to(out) for p in figure)]
+    files = [Path(TRIALS), Path(PARETO)]
+    if figure:
+        best = None if front.empty else knee(front, objectives)
+        drawn = save_figure(plot_pareto(table, objectives, best=best), out / FIGURE)
+        files += [p.relative_to(out) for p in drawn]
+    return files
