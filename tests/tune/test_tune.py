@@ -125,7 +125,7 @@ def test_diverging_trials_are_recorded_as_failed(short: Scenario, tmp_path: Path
     bad = tune(short, figure=False, controller="pdsmc", trials=3, out=tmp_path / "bad", bounds={"k": (1e7, 1e8)})
     assert bad.status == "all_failed" and not bad.ok and bad.pareto.empty
     with pytest.raises(ValueError, match="no Pareto front"):
-        bad.best
+        _ = bad.best
 
 
 def test_limits_are_constraints(short: Scenario, tmp_path: Path) -> None:
