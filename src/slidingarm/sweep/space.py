@@ -35,11 +35,12 @@ from slidingarm._validate import is_real
 from slidingarm.config.errors import ConfigError
 
 if TYPE_CHECKING:
-    from slidingarm.config.scenario import Scenario
+    from slidingarm.config.scenario import Scenario, Setup
 
 __all__ = [
     "KINDS",
     "Distribution",
+    "applied",
     "apply",
     "get_value",
     "is_fixed",
@@ -443,24 +444,49 @@ def apply(scenario: Scenario, values: Mapping[str, Any]) -> Scenario:
         Naming the key if it does not exist in the scenario, is not numeric, or the value is
         refused by the scenario's validation.
     """
-    from slidingarm.config.loader import scenario_from_dict
+    return applied(scenario, values)[0]
 
+
+def applied(scenario: Scenario, values: Mapping[str, Any]) -> tuple[Scenario, Setup]:
+    """:func:`apply` and the new scenario's :meth:`~Scenario.build`, built once (validating
+    a scenario builds it)."""
     data = scenario.to_dict()
     for key, value in values.items():
         if key.split(".")[0].split("[")[0] == "sweep":
             raise ConfigError("the [sweep] table is not a scenario value", path=key)
         _set(data, key, _plain(value))
+    return validated(scenario, data, values)
+
+
+def validated(
+    scenario: Scenario, data: dict[str, Any], values: Mapping[str, Any]
+) -> tuple[Scenario, Setup]:
+    """``data`` (``scenario.to_dict()`` with ``values`` set) validated and built as
+    :func:`slidingarm.config.scenario_from_dict` does, anchored where ``scenario`` is; an
+    error names the key of ``values`` it is about."""
+    from pydantic import ValidationError
+
+    from slidingarm.config.errors import from_pydantic
+    from slidingarm.config.scenario import Scenario as ScenarioModel
+
+    source = scenario.source
     try:
-        out = scenario_from_dict(data, source=scenario.source, base_dir=scenario._base_dir)
+        try:
+            out = ScenarioModel.model_validate(data)
+        except ValidationError as exc:
+            raise from_pydantic(exc, ScenarioModel, source, {}) from None
+        out._source = source
+        out._origin = dict(scenario._origin)
+        out._base_dir = scenario._base_dir
+        setup = out.build()
     except ConfigError as exc:
         key = _blame(exc.path, values)
         where = "" if exc.path in (key, "") else f"{exc.path}: "
         shown = _plain(values[key]) if key in values else None
         raise ConfigError(
-            f"value {shown!r} refused: {where}{exc.reason}", file=scenario.source, path=key
+            f"value {shown!r} refused: {where}{exc.reason}", file=source, path=key
         ) from None
-    out._origin = dict(scenario._origin)
-    return out
+    return out, setup
 
 
 def _blame(path: str, values: Mapping[str, Any]) -> str:
