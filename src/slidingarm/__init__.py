@@ -3,7 +3,10 @@
 The public API is exactly what this module re-exports.
 """
 
-from slidingarm import robots  # the shipped robots: sa.robots.load(...)
+from slidingarm import (
+    robots,  # the shipped robots: sa.robots.load(...)
+    sweep,  # Monte Carlo; the package is callable: sa.sweep(scenario, runs=..., out=...)
+)
 from slidingarm._version import __version__
 from slidingarm.control import (
     FTSMC,
@@ -49,6 +52,7 @@ from slidingarm.sensors import (
     TrueVelocity,
 )
 from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
+from slidingarm.sweep import SweepResult
 
 __all__ = [
     "FTSMC",
@@ -87,6 +91,7 @@ __all__ = [
     "SlidingModeController",
     "SteppedArm",
     "SteppedPlant",
+    "SweepResult",
     "TableReference",
     "TrueVelocity",
     "__version__",
@@ -95,5 +100,6 @@ __all__ = [
     "robots",
     "simulate",
     "simulate_batch",
+    "sweep",
     "tsm_convergence_time",
 ]

@@ -5,9 +5,16 @@
 - :mod:`~slidingarm.sweep.staging` -- each draw's values and seed, and its run's objects;
 - :mod:`~slidingarm.sweep.run` -- :func:`sweep`: chunks, executors, the resumable folder;
 - :mod:`~slidingarm.sweep.summary` -- medians with bootstrap intervals, success rates.
+
+The package itself is callable: ``slidingarm.sweep(scenario, runs=1000, out="dir")`` is
+:func:`slidingarm.sweep.run.sweep`, and ``import slidingarm.sweep.space`` still works.
 """
 
 from __future__ import annotations
+
+import sys
+import types
+from typing import Any
 
 from slidingarm.sweep.run import SweepDefinition, SweepError, SweepResult, run_chunk, sweep
 from slidingarm.sweep.space import Distribution, apply, numeric_keys
@@ -25,3 +32,14 @@ __all__ = [
     "summarize",
     "sweep",
 ]
+
+
+class _Callable(types.ModuleType):
+    """This package, callable: ``slidingarm.sweep(scenario, runs=..., out=...)`` is
+    :func:`slidingarm.sweep.run.sweep`."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> SweepResult:
+        return sweep(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _Callable
