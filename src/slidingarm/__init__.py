@@ -3,7 +3,11 @@
 The public API is exactly what this module re-exports.
 """
 
-from slidingarm import robots  # the shipped robots: sa.robots.load(...)
+from slidingarm import (
+    robots,  # the shipped robots: sa.robots.load(...)
+    sweep,  # Monte Carlo; the package is callable: sa.sweep(scenario, runs=..., out=...)
+    tune,  # gain tuning; the package is callable: sa.tune(scenario, controller=..., ...)
+)
 from slidingarm._version import __version__
 from slidingarm.control import (
     FTSMC,
@@ -49,7 +53,8 @@ from slidingarm.sensors import (
     TrueVelocity,
 )
 from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
-from slidingarm.tune import TuneResult, tune  # the function shadows the subpackage's name
+from slidingarm.sweep import SweepResult
+from slidingarm.tune import TuneResult
 
 __all__ = [
     "FTSMC",
@@ -88,6 +93,7 @@ __all__ = [
     "SlidingModeController",
     "SteppedArm",
     "SteppedPlant",
+    "SweepResult",
     "TableReference",
     "TrueVelocity",
     "TuneResult",
@@ -97,6 +103,7 @@ __all__ = [
     "robots",
     "simulate",
     "simulate_batch",
+    "sweep",
     "tsm_convergence_time",
     "tune",
 ]

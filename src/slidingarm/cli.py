@@ -1,7 +1,7 @@
 """The ``slidingarm`` command line: thin verbs that parse, validate, call the library, report.
 
-Verbs: ``reproduce`` (the whole study), ``run`` (one scenario), ``validate``, ``list``,
-``schema``; ``--version``. A user mistake (missing or invalid scenario file, unusable output
+Verbs: ``reproduce`` (the whole study), ``run`` (one scenario), ``sweep`` (Monte Carlo over a
+scenario), ``validate``, ``list``, ``schema``; ``--version``. A user mistake (missing or invalid scenario file, unusable output
 folder, a file or folder the system refuses, e.g. a full disk) prints one line on stderr and
 exits with status 2; a diverging simulation or a failed
 check of the study exits with 1; an interrupt with 130. Progress bars go to stderr and only
@@ -247,6 +247,129 @@ def schema() -> None:
     from slidingarm.config import Scenario
 
     typer.echo(json.dumps(Scenario.model_json_schema(), indent=2, ensure_ascii=False))
+
+
+@app.command(name="sweep")
+def sweep_(
+    config: Annotated[
+        str, typer.Argument(help="Scenario file, or the name of a shipped scenario.")
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Sweep folder (created, or resumed if it holds this sweep).")
+    ],
+    runs: Annotated[
+        int | None, typer.Option("--runs", "-n", min=1, help="Number of draws (default: [sweep] runs).")
+    ] = None,
+    vary: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--vary",
+            help="KEY=DIST, e.g. 'gains.k=uniform(10,40)', 'simulation.q0=+normal(0,0.05)' (+: "
+            "an offset); adds to or replaces the [sweep] table's entry. Repeatable.",
+        ),
+    ] = None,
+    dask: Annotated[
+        str | None,
+        typer.Option(
+            "--dask",
+            help="Run the chunks on Dask: 'local' or 'local:W' (a LocalCluster of W processes) "
+            "or a scheduler ADDRESS.",
+        ),
+    ] = None,
+    chunk: Annotated[
+        int | None, typer.Option("--chunk", min=1, help="Draws per chunk and shard.")
+    ] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, help="Seed of the draws (default: [sweep] seed).")
+    ] = None,
+    figures: Annotated[
+        bool, typer.Option("--figures/--no-figures", help="Draw the figures.")
+    ] = True,
+) -> None:
+    """Monte Carlo over a scenario: every controller on the same draws, resumable."""
+    from slidingarm.config import ConfigError
+    from slidingarm.sweep import sweep as run_sweep
+    from slidingarm.sweep.summary import summary_text
+
+    with _errors():
+        scenario = _load(config)
+        entries: dict[str, str] = {}
+        for item in vary or []:
+            key, eq, dist = item.partition("=")
+            if not eq or not key.strip():
+                raise ConfigError(
+                    f"must be KEY=DIST, e.g. 'gains.k=uniform(10,40)', got {item!r}", path="--vary"
+                )
+            entries[key.strip()] = dist
+        with _sweep_progress() as progress:
+            result = run_sweep(
+                scenario,
+                runs=runs,
+                out=out,
+                vary=entries,
+                seed=seed,
+                chunk=chunk,
+                executor=dask,
+                progress=progress,
+                figures=figures,
+            )
+    d = result.definition
+    typer.echo(
+        f"wrote {out}: {d.runs} draws × {len(result.table['controller'].unique())} controllers "
+        f"in {d.n_chunks} chunks ({result.computed} run now, {result.resumed} resumed) in "
+        f"{result.runtime_s:.1f} s; {result.status}"
+    )
+    typer.echo("varied: " + ", ".join(f"{k} ~ {v}" for k, v in d.distributions.items()))
+    typer.echo(summary_text(result.summary))
+
+
+@contextmanager
+def _sweep_progress() -> Iterator[Callable[[int, int], None] | None]:
+    """A rich progress bar with rate and ETA on stderr when it is a terminal; else none."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    bar = Progress(
+        TextColumn("sweep"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TaskProgressColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    task = bar.add_task("sweep", total=None, rate="")
+    first: list[tuple[float, int]] = []
+
+    def update(done: int, total: int) -> None:
+        import time
+
+        now = time.perf_counter()
+        if not first:
+            # resumed draws are not progress made now: they count in neither rate nor ETA
+            first.append((now, done))
+            bar.reset(task, total=total, completed=done, rate="")
+            return
+        t0, d0 = first[0]
+        rate = f"{(done - d0) / (now - t0):.1f} draws/s" if now > t0 and done > d0 else ""
+        bar.update(task, completed=done, total=total, rate=rate)
+
+    with bar:
+        yield update
 
 
 def _pareto_lines(result: Any, limit: int = 20) -> list[str]:

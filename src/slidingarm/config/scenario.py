@@ -29,6 +29,7 @@ from slidingarm.config.specs import (
     SensorSpec,
     SimulationSpec,
     SineReferenceSpec,
+    SweepSpec,
     TableReferenceSpec,
     VelocitySpec,
     _build_disturbance,
@@ -114,6 +115,11 @@ class Scenario(_Strict):
     disturbances: list[DisturbanceSpec] = Field(default_factory=list)
     gains: GainsSpec = GainsSpec()
     controllers: list[ControllerSpec] = Field(min_length=1)
+    sweep: SweepSpec | None = Field(
+        default=None,
+        description="A Monte Carlo sweep of this scenario (slidingarm sweep only): runs, seed, "
+        'chunk and distributions keyed by dotted paths ("gains.k" = { uniform = [10, 40] }).',
+    )
 
     _source: Path | None = PrivateAttr(default=None)
     _base_dir: Path | None = PrivateAttr(default=None)

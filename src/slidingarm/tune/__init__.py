@@ -5,7 +5,17 @@
 - :mod:`~slidingarm.tune.evaluate` — a trial's scenario, its run(s) and its score;
 - :mod:`~slidingarm.tune.tuning` — :func:`tune`, resumable from its folder, and
   :class:`TuneResult` (trials, Pareto front, export of a trial as a scenario file).
+
+The package itself is callable, as :mod:`slidingarm.sweep` is: ``slidingarm.tune(scenario,
+controller="ftsmc", trials=100, out="dir")`` is :func:`slidingarm.tune.tuning.tune`, and
+``import slidingarm.tune.space`` still works.
 """
+
+from __future__ import annotations
+
+import sys
+import types
+from typing import Any
 
 from slidingarm.tune.evaluate import STATISTICS, Score, reduce, score, tuning_scenario, with_gains
 from slidingarm.tune.space import GainBound, GainSpace, gain_space, parse_bound
@@ -34,3 +44,14 @@ __all__ = [
     "tuning_scenario",
     "with_gains",
 ]
+
+
+class _Callable(types.ModuleType):
+    """This package, callable: ``slidingarm.tune(scenario, controller=..., trials=..., out=...)``
+    is :func:`slidingarm.tune.tuning.tune`."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> TuneResult:
+        return tune(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _Callable
