@@ -27,7 +27,9 @@ def _dominates(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.all(a <= b) and np.any(a < b))
 
 
-def test_front_is_the_non_dominated_set_and_files_are_written(short: Scenario, tmp_path: Path) -> None:
+def test_front_is_the_non_dominated_set_and_files_are_written(
+    short: Scenario, tmp_path: Path
+) -> None:
     out = tmp_path / "t"
     r = tune(short, controller="ftsmc", trials=16, out=out)
     assert r.ok and r.ran == 16 and r.kept == 0
@@ -49,7 +51,9 @@ def test_front_is_the_non_dominated_set_and_files_are_written(short: Scenario, t
     pareto = pd.read_csv(out / "pareto.csv")
     assert set(pareto["trial"]) == set(trials.loc[front, "trial"])
     assert pareto["mse"].is_monotonic_increasing
-    np.testing.assert_array_equal(pd.read_csv(out / "trials.csv")[list(METRIC_COLUMNS)], trials[list(METRIC_COLUMNS)])
+    np.testing.assert_array_equal(
+        pd.read_csv(out / "trials.csv")[list(METRIC_COLUMNS)], trials[list(METRIC_COLUMNS)]
+    )
     assert r.best in set(pareto["trial"])
     definition = json.loads((out / "tune.json").read_text())
     assert definition["definition"]["objectives"] == list(OBJECTIVES)
@@ -72,7 +76,9 @@ def test_same_seed_same_trials_other_seed_other_trials(short: Scenario, tmp_path
     assert not np.allclose(a.trials["k"], c.trials["k"])
 
 
-def test_rerun_keeps_finished_trials_and_extends_the_budget(short: Scenario, tmp_path: Path) -> None:
+def test_rerun_keeps_finished_trials_and_extends_the_budget(
+    short: Scenario, tmp_path: Path
+) -> None:
     out = tmp_path / "t"
     first = tune(short, figure=False, controller="pdsmc", trials=5, out=out)
     again = tune(short, figure=False, controller="pdsmc", trials=5, out=out)
@@ -112,7 +118,14 @@ def test_a_folder_of_something_else_is_refused_untouched(short: Scenario, tmp_pa
 
 def test_diverging_trials_are_recorded_as_failed(short: Scenario, tmp_path: Path) -> None:
     # k up to 1e7 rad/s²: a sign ripple k·Ts of thousands of rad/s, beyond the 1e4 rad/s limit
-    r = tune(short, figure=False, controller="pdsmc", trials=12, out=tmp_path / "t", bounds={"k": (1.0, 1e7)})
+    r = tune(
+        short,
+        figure=False,
+        controller="pdsmc",
+        trials=12,
+        out=tmp_path / "t",
+        bounds={"k": (1.0, 1e7)},
+    )
     failed = r.trials[r.trials["state"] == "failed"]
     assert 0 < len(failed) < 12
     assert failed["message"].str.contains("diverged|exceeds|non-finite", regex=True).all()
@@ -122,7 +135,14 @@ def test_diverging_trials_are_recorded_as_failed(short: Scenario, tmp_path: Path
     with pytest.raises(ValueError, match="failed"):
         r.export(int(failed["trial"].iloc[0]))
     # every trial diverging: no front, and the result says so
-    bad = tune(short, figure=False, controller="pdsmc", trials=3, out=tmp_path / "bad", bounds={"k": (1e7, 1e8)})
+    bad = tune(
+        short,
+        figure=False,
+        controller="pdsmc",
+        trials=3,
+        out=tmp_path / "bad",
+        bounds={"k": (1e7, 1e8)},
+    )
     assert bad.status == "all_failed" and not bad.ok and bad.pareto.empty
     with pytest.raises(ValueError, match="no Pareto front"):
         _ = bad.best
@@ -131,7 +151,14 @@ def test_diverging_trials_are_recorded_as_failed(short: Scenario, tmp_path: Path
 def test_limits_are_constraints(short: Scenario, tmp_path: Path) -> None:
     free = tune(short, figure=False, controller="ftsmc", trials=12, out=tmp_path / "free")
     cap = float(free.trials["peak_torque"].median())
-    r = tune(short, figure=False, controller="ftsmc", trials=12, out=tmp_path / "cap", limits={"peak_torque": cap})
+    r = tune(
+        short,
+        figure=False,
+        controller="ftsmc",
+        trials=12,
+        out=tmp_path / "cap",
+        limits={"peak_torque": cap},
+    )
     t = r.trials
     assert (t["feasible"] == (t["peak_torque"] <= cap)).all()
     assert 0 < t["feasible"].sum() < len(t)
@@ -140,12 +167,27 @@ def test_limits_are_constraints(short: Scenario, tmp_path: Path) -> None:
     ok = t[t["feasible"]][list(OBJECTIVES)].to_numpy()
     for row in r.pareto[list(OBJECTIVES)].to_numpy():
         assert not any(_dominates(o, row) for o in ok)
-    impossible = tune(short, figure=False, controller="ftsmc", trials=4, out=tmp_path / "no", limits={"peak_torque": 1e-3})
+    impossible = tune(
+        short,
+        figure=False,
+        controller="ftsmc",
+        trials=4,
+        out=tmp_path / "no",
+        limits={"peak_torque": 1e-3},
+    )
     assert impossible.status == "infeasible" and impossible.pareto.empty
 
 
 def test_tpe_and_one_objective(short: Scenario, tmp_path: Path) -> None:
-    r = tune(short, figure=False, controller="ftsmc", trials=12, out=tmp_path / "t", sampler="tpe", objectives=("iae",))
+    r = tune(
+        short,
+        figure=False,
+        controller="ftsmc",
+        trials=12,
+        out=tmp_path / "t",
+        sampler="tpe",
+        objectives=("iae",),
+    )
     assert r.ok and len(r.pareto) == 1
     assert r.best == int(r.trials.loc[r.trials["iae"].idxmin(), "trial"])
 
@@ -210,7 +252,8 @@ tune(load_scenario(sys.argv[1]), controller="ftsmc", trials=int(sys.argv[3]), ou
 
 
 def test_kill_9_then_resume_equals_an_uninterrupted_tuning(
-    make_short, tmp_path: Path  # type: ignore[no-untyped-def]
+    make_short,
+    tmp_path: Path,  # type: ignore[no-untyped-def]
 ) -> None:
     from slidingarm.config import load_scenario
 

@@ -41,9 +41,7 @@ def test_spaces_follow_each_class() -> None:
 
 def test_super_twisting_tunes_k2_and_per_joint_values_span_their_range() -> None:
     d = load_shipped("tanh").to_dict()
-    d["controllers"] = [
-        {"name": "ftsmc", "reaching": "super-twisting", "k2": [50.0, 100.0, 200.0]}
-    ]
+    d["controllers"] = [{"name": "ftsmc", "reaching": "super-twisting", "k2": [50.0, 100.0, 200.0]}]
     space = gain_space(_controller(scenario_from_dict(d), "ftsmc"))
     assert space.names[-1] == "k2"
     assert (space["k2"].low, space["k2"].high) == pytest.approx((5.0, 2000.0))

@@ -22,20 +22,23 @@ trial (``optuna.trial.TrialState.FAIL``) with the run's message.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 
-from slidingarm.config import ConfigError, Scenario, scenario_from_dict
+from slidingarm.config import ConfigError, Scenario, Setup, scenario_from_dict
 from slidingarm.control.controllers import CONTROLLERS
 from slidingarm.metrics import METRIC_COLUMNS, summary
 
 __all__ = [
     "STATISTICS",
     "Score",
+    "check_draws",
     "reduce",
+    "robust_score",
     "score",
     "tuning_scenario",
     "with_gains",
@@ -95,8 +98,10 @@ def tuning_scenario(scenario: Scenario, controller: str) -> tuple[Scenario, str]
     """
     labels = [c.key for c in scenario.controllers]
     d = scenario.to_dict()
+    kept: int | None = None
     if controller in labels:
-        spec = dict(d["controllers"][labels.index(controller)])
+        kept = labels.index(controller)
+        spec = dict(d["controllers"][kept])
     elif controller in CONTROLLERS:
         spec = {"name": controller}
     else:
@@ -113,30 +118,79 @@ def tuning_scenario(scenario: Scenario, controller: str) -> tuple[Scenario, str]
     if klass.LINEAR_NAME is not None and synonym[klass.LINEAR_NAME] in spec:
         spec[klass.LINEAR_NAME] = spec.pop(synonym[klass.LINEAR_NAME])
     d["controllers"] = [spec]
+    if "sweep" in d:
+        d["sweep"] = _renumbered(d["sweep"], kept)
     base = scenario_from_dict(d, source=scenario.source, base_dir=scenario._base_dir)
     return base, base.controllers[0].key
 
 
+_CONTROLLER_KEY = re.compile(r"^controllers\[(\d+)\](.*)$")
+
+
+def _renumbered(sweep: dict[str, Any], kept: int | None) -> dict[str, Any]:
+    """A ``[sweep]`` table for the one-controller scenario: keys of the kept controller
+    ``controllers[kept].x`` become ``controllers[0].x``; those of dropped controllers go."""
+    out: dict[str, Any] = {}
+    for key, value in sweep.items():
+        m = _CONTROLLER_KEY.match(key)
+        if m is None:
+            out[key] = value
+        elif kept is not None and int(m.group(1)) == kept:
+            out[f"controllers[0]{m.group(2)}"] = value
+    return out
+
+
+def check_draws(base: Scenario, tuned: Sequence[str]) -> None:
+    """A robust tuning's ``[sweep]`` exists and varies none of the ``tuned`` gains (the trial
+    sets them: a draw of one would be overwritten or, on ``[gains]``, shadowed).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``sweep`` when the scenario has no draws, or the ``sweep."<key>"`` that varies
+        a tuned gain.
+    """
+    spec = base.sweep
+    keys = list(spec.distributions()) if spec is not None else []
+    if not keys:
+        raise ConfigError(
+            "a robust tuning scores each trial on the scenario's [sweep] draws, but it has "
+            'none; add a [sweep] table (e.g. "mismatch.mass_error" = { normal = [0, 0.1] }) or '
+            "use robust = 0",
+            file=base.source,
+            path="sweep",
+        )
+    names = set(tuned)
+    if names & {"alpha", "lam"}:
+        names |= {"alpha", "lam"}
+    for key in keys:
+        head, _, gain = key.rpartition(".")
+        if head in ("gains", "controllers[0]") and gain in names:
+            raise ConfigError(
+                f"varies {gain}, a gain the tuning sets; remove it from [sweep] or keep the "
+                f"gain out of the tuning (--bound {gain}=fixed)",
+                file=base.source,
+                path=f'sweep."{key}"',
+            )
+
+
 def with_gains(base: Scenario, gains: Mapping[str, float]) -> Scenario:
     """``base`` (from :func:`tuning_scenario`) with ``gains`` set on its one controller,
-    validated as a scenario file is.
+    validated as a scenario file is (:func:`slidingarm.sweep.space.apply` of
+    ``controllers[0].<gain>``).
 
     Raises
     ------
     ConfigError
         Naming ``controllers[0].<gain>`` when the scenario refuses a value.
     """
-    return _set_controller_gains(base, gains)
+    return _gains_applied(base, gains)[0]
 
 
-def _set_controller_gains(base: Scenario, gains: Mapping[str, float]) -> Scenario:
-    # TODO(tune10): replaced by slidingarm.sweep.space.apply when the sweep lands
-    d = base.to_dict()
-    spec = dict(d["controllers"][0])
-    for name, value in gains.items():
-        spec[name] = float(value)
-    d["controllers"] = [spec]
-    return scenario_from_dict(d, source=base.source, base_dir=base._base_dir)
+def _gains_applied(base: Scenario, gains: Mapping[str, float]) -> tuple[Scenario, Setup]:
+    from slidingarm.sweep.space import applied
+
+    return applied(base, {f"controllers[0].{k}": float(v) for k, v in gains.items()})
 
 
 def _percentile(values: np.ndarray, q: float) -> float:
@@ -170,7 +224,7 @@ def _mean_row(table: Any) -> dict[str, float]:
     return {name: float(row[name]) for name in METRIC_COLUMNS}
 
 
-def score(scenario: Scenario) -> Score:
+def score(scenario: Scenario | Setup) -> Score:
     """The nominal score of a one-controller scenario: its one run, as ``slidingarm run``
     computes it (the same simulation, :func:`slidingarm.metrics.summary` of the full traces).
 
@@ -181,8 +235,39 @@ def score(scenario: Scenario) -> Score:
     """
     from slidingarm.study.analysis import simulate_setup
 
-    setup = scenario.build()
+    setup = scenario.build() if isinstance(scenario, Scenario) else scenario
     (result,) = simulate_setup(setup, on_diverge="record").values()
     if isinstance(result, str):
         return Score(ok=False, message=result, runs=1, failed_runs=1)
     return Score(ok=True, values=_mean_row(summary(result)), runs=1)
+
+
+def robust_score(scenario: Scenario, draws: int, statistic: Statistic) -> Score:
+    """The score of a one-controller scenario over its ``[sweep]`` draws ``0..draws-1``, each
+    metric reduced by ``statistic`` (:func:`reduce`); the draws are those
+    ``slidingarm sweep`` makes of this scenario (:func:`slidingarm.sweep.run.run_chunk` of
+    one chunk), so they are the same for every trial.
+
+    Raises
+    ------
+    ConfigError
+        If the scenario has no draws or a draw's key is refused.
+    """
+    from slidingarm.sweep.run import definition_of, run_chunk
+
+    definition = definition_of(scenario, runs=draws, chunk=draws)
+    table = run_chunk(definition, 0)
+    mean = table[table["joint"] == "mean"]
+    ok = mean["ok"].to_numpy(dtype=bool)
+    if not ok.all():
+        first = mean[~ok].iloc[0]
+        return Score(
+            ok=False,
+            message=f"draw {int(first['run'])}: {first['message']}",
+            runs=draws,
+            failed_runs=int((~ok).sum()),
+        )
+    values = {
+        name: reduce(mean[name].to_numpy(dtype=np.float64), statistic) for name in METRIC_COLUMNS
+    }
+    return Score(ok=True, values=values, runs=draws)

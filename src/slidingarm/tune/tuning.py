@@ -61,7 +61,16 @@ from slidingarm._version import __version__
 from slidingarm.config import ConfigError, Scenario, scenario_from_dict
 from slidingarm.metrics import METRIC_COLUMNS
 from slidingarm.study.output import OutputError
-from slidingarm.tune.evaluate import STATISTICS, Score, score, tuning_scenario, with_gains
+from slidingarm.tune.evaluate import (
+    STATISTICS,
+    Score,
+    _gains_applied,
+    check_draws,
+    robust_score,
+    score,
+    tuning_scenario,
+    with_gains,
+)
 from slidingarm.tune.space import BoundSpec, GainSpace, gain_space
 
 if TYPE_CHECKING:
@@ -636,7 +645,11 @@ def tune(
     base, label = tuning_scenario(scenario, controller)
     ctrl = base.build().controllers[label]
     space = gain_space(ctrl, bounds)
-    evaluate = _nominal if robust == 0 else _robust_unavailable
+    if robust:
+        from slidingarm.sweep.run import definition_of
+
+        check_draws(base, space.names)
+        definition_of(base, runs=robust, chunk=robust)  # the draws' keys, checked once here
     definition = _canonical(
         {
             "scenario": base.to_dict(),
@@ -674,7 +687,7 @@ def tune(
             study.sampler = _make_sampler(sampler, _trial_seed(seed, k), population)
             trial = study.ask(distributions)
             trial.set_user_attr("index", k)
-            result = evaluate(base, dict(trial.params), robust, statistic)
+            result = _evaluate(base, dict(trial.params), robust, statistic)
             if result.ok:
                 trial.set_user_attr("metrics", result.values)
                 for name, value in limits.items():
@@ -723,18 +736,21 @@ def tune(
     )
 
 
-def _nominal(base: Scenario, gains: dict[str, float], robust: int, statistic: str) -> Score:
+def _evaluate(
+    base: Scenario, gains: dict[str, float], robust: int, statistic: Literal["mean", "p90"]
+) -> Score:
+    """One trial: its nominal run, or its ``robust`` draws reduced by ``statistic``; gains the
+    scenario refuses make a failed trial."""
     try:
-        scn = with_gains(base, gains)
+        scn, setup = _gains_applied(base, gains)
     except ConfigError as exc:
         return Score(ok=False, message=f"the scenario refuses these gains: {exc}")
-    return score(scn)
-
-
-def _robust_unavailable(
-    base: Scenario, gains: dict[str, float], robust: int, statistic: str
-) -> Score:
-    raise ConfigError("robust tuning needs the sweep's [sweep] draws", path="robust")
+    if robust == 0:
+        return score(setup)
+    try:
+        return robust_score(scn, robust, statistic)
+    except ConfigError as exc:
+        return Score(ok=False, message=f"a draw is refused: {exc}", runs=robust)
 
 
 def _pareto(table: pd.DataFrame, objectives: Sequence[str]) -> pd.DataFrame:
