@@ -50,15 +50,16 @@ def _median_ci(
     if x.size < 2 or np.all(x == x[0]):
         v = float(x[0]) if x.size else float("nan")
         return v, v
-    res = bootstrap(
-        (x,),
-        np.median,
-        n_resamples=n_resamples,
-        confidence_level=confidence,
-        method="percentile",
-        vectorized=True,
-        rng=rng,
-    )
+    with np.errstate(invalid="ignore"):  # an infinite metric (never settled) is allowed
+        res = bootstrap(
+            (x,),
+            np.median,
+            n_resamples=n_resamples,
+            confidence_level=confidence,
+            method="percentile",
+            vectorized=True,
+            rng=rng,
+        )
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
