@@ -288,10 +288,15 @@ def sweep_(
 ) -> None:
     """Monte Carlo over a scenario: every controller on the same draws, resumable."""
     from slidingarm.config import ConfigError
+    from slidingarm.study import scenarios_dir
     from slidingarm.sweep import sweep as run_sweep
     from slidingarm.sweep.summary import summary_text
 
     with _errors():
+        # the shipped sweeps (robust) by name, as run takes the shipped scenarios
+        shipped = scenarios_dir() / f"{config}.toml"
+        if not Path(config).exists() and "/" not in config and shipped.is_file():
+            config = str(shipped)
         scenario = _load(config)
         entries: dict[str, str] = {}
         for item in vary or []:
