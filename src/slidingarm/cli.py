@@ -258,7 +258,7 @@ def sweep_(
         Path, typer.Option("--out", "-o", help="Sweep folder (created, or resumed if it holds this sweep).")
     ],
     runs: Annotated[
-        int | None, typer.Option("--runs", "-n", min=1, help="Number of draws (default: [sweep] runs).")
+        int | None, typer.Option("--runs", "-n", help="Number of draws (default: [sweep] runs).")
     ] = None,
     vary: Annotated[
         list[str] | None,
@@ -277,10 +277,10 @@ def sweep_(
         ),
     ] = None,
     chunk: Annotated[
-        int | None, typer.Option("--chunk", min=1, help="Draws per chunk and shard.")
+        int | None, typer.Option("--chunk", help="Draws per chunk and shard.")
     ] = None,
     seed: Annotated[
-        int | None, typer.Option("--seed", min=0, help="Seed of the draws (default: [sweep] seed).")
+        int | None, typer.Option("--seed", help="Seed of the draws (default: [sweep] seed).")
     ] = None,
     figures: Annotated[
         bool, typer.Option("--figures/--no-figures", help="Draw the figures.")
@@ -288,10 +288,15 @@ def sweep_(
 ) -> None:
     """Monte Carlo over a scenario: every controller on the same draws, resumable."""
     from slidingarm.config import ConfigError
+    from slidingarm.study import scenarios_dir
     from slidingarm.sweep import sweep as run_sweep
     from slidingarm.sweep.summary import summary_text
 
     with _errors():
+        # the shipped sweeps (robust) by name, as run takes the shipped scenarios
+        shipped = scenarios_dir() / f"{config}.toml"
+        if not Path(config).exists() and "/" not in config and shipped.is_file():
+            config = str(shipped)
         scenario = _load(config)
         entries: dict[str, str] = {}
         for item in vary or []:

@@ -16,8 +16,9 @@ confidence interval, and the success rate with a Wilson interval.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -50,15 +51,17 @@ def _median_ci(
     if x.size < 2 or np.all(x == x[0]):
         v = float(x[0]) if x.size else float("nan")
         return v, v
-    res = bootstrap(
-        (x,),
-        np.median,
-        n_resamples=n_resamples,
-        confidence_level=confidence,
-        method="percentile",
-        vectorized=True,
-        rng=rng,
-    )
+    options: dict[str, Any] = {
+        "n_resamples": n_resamples,
+        "confidence_level": confidence,
+        "method": "percentile",
+        "vectorized": True,
+    }
+    # scipy < 1.15 names the generator random_state
+    name = "rng" if "rng" in inspect.signature(bootstrap).parameters else "random_state"
+    options[name] = rng
+    with np.errstate(invalid="ignore"):  # an infinite metric (never settled) is allowed
+        res = bootstrap((x,), np.median, **options)
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
