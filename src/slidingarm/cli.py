@@ -516,6 +516,78 @@ def tune(
         typer.echo(f"exported {path} (slidingarm run {path} --out DIR)")
 
 
+@app.command()
+def compare(
+    config: Annotated[
+        str,
+        typer.Argument(help="Scenario file with a [sweep] table (e.g. the shipped robust.toml)."),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Comparison folder (resumed).")],
+    quick: Annotated[
+        bool, typer.Option("--quick", help="A smoke run of the pipeline (under a minute).")
+    ] = False,
+    limit: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--limit", help="Constraint METRIC=VALUE of every tuning (default: the scenario's)."
+        ),
+    ] = None,
+    vary: Annotated[
+        list[str] | None,
+        typer.Option("--vary", help="Add a draw to the [sweep]: KEY=DIST, e.g. mismatch.payload=uniform(0,0.5)."),
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the tunings.")] = 0,
+) -> None:
+    """Tune PDSMC, TSMC, FTSMC, NTSMC and FTSMC with super-twisting alike, test them on the
+    same Monte Carlo draws, and say whether FTSMC < TSMC < PDSMC holds."""
+    from slidingarm.config import ConfigError
+    from slidingarm.tune.compare import FULL, QUICK
+    from slidingarm.tune.compare import compare as run_compare
+
+    with _errors():
+        path = Path(config)
+        if not path.is_file() and config == "robust":
+            from slidingarm.study import scenarios_dir
+
+            path = scenarios_dir() / "robust.toml"
+        scenario = _load(str(path))
+        limits = _pairs(limit, "--limit") if limit else None
+        draws: dict[str, str] = {}
+        for text in vary or []:
+            key, sep, dist = text.partition("=")
+            if not sep or not key.strip():
+                raise ConfigError(f"expected KEY=DIST, got {text!r}", path="--vary")
+            draws[key.strip()] = dist.strip()
+        try:
+            with _progress() as progress:
+                result = run_compare(
+                    scenario,
+                    out=out,
+                    budget=QUICK if quick else FULL,
+                    limits=limits,
+                    vary=draws or None,
+                    seed=seed,
+                    progress=progress,
+                )
+        except KeyboardInterrupt:
+            _fail(
+                f"interrupted; finished trials and chunks are kept in {out}: rerun the same "
+                "command to resume",
+                EXIT_INTERRUPTED,
+            )
+    typer.echo(result.headline)
+    typer.echo(f"{'controller':<10}{'median MSE':>12}{'95 % CI':>24}{'success':>9}  gains")
+    for _, r in result.controllers.iterrows():
+        ci = (
+            f"[{r.get('median_low', float('nan')):.4g}, {r.get('median_high', float('nan')):.4g}]"
+        )
+        typer.echo(
+            f"{r['controller']:<10}{r.get('median_mse', float('nan')):>12.4g}{ci:>24}"
+            f"{r.get('success', float('nan')):>9.1%}  {r['gains']}"
+        )
+    typer.echo(f"report: {out / 'report.md'} ({result.runtime_s:.0f} s)")
+
+
 def main() -> None:
     """Entry point of the ``slidingarm`` console script."""
     app()

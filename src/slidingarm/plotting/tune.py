@@ -16,11 +16,11 @@ import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from matplotlib.ticker import NullLocator
+from matplotlib.ticker import FormatStrFormatter, NullLocator
 
 from slidingarm.plotting._style import RC, PowerOfTenFormatter
 
-__all__ = ["FRONT_COLOR", "plot_pareto"]
+__all__ = ["FRONT_COLOR", "plot_comparison", "plot_pareto"]
 
 #: Colour of the Pareto front (Okabe–Ito blue); other trials are grey.
 FRONT_COLOR = "#0072B2"
@@ -157,6 +157,79 @@ def plot_pareto(
                 handles.setdefault(lab, h)
         if handles:
             axes[0].legend(list(handles.values()), list(handles), loc="best", fontsize="small")
+        if title:
+            fig.suptitle(title)
+    return fig
+
+
+_LABELS = {"ftsmc_st": "FTSMC-ST"}
+
+
+def plot_comparison(
+    mse: pd.DataFrame,
+    ok: pd.DataFrame,
+    pairs: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Sequence[Axes] | None = None,
+) -> Figure:
+    """A fair comparison (:func:`slidingarm.tune.compare.compare`): the ECDF of each
+    controller's MSE over the test draws (its finished runs), and each paired comparison's
+    geometric-mean MSE ratio with its 95 % interval (left of 1: A's MSE is lower).
+
+    Parameters
+    ----------
+    mse, ok : DataFrame
+        One row per draw, one column per controller: the MSE (mean over joints) and whether
+        the run finished.
+    pairs : DataFrame
+        Columns ``a``, ``b``, ``ratio``, ``ci_low``, ``ci_high``, ``verdict``.
+    ax : two Axes, optional
+    """
+    from slidingarm.plotting._style import controller_style
+
+    with matplotlib.rc_context(RC):
+        if ax is None:
+            fig = Figure(figsize=(11.0, 4.2))
+            axes = list(fig.subplots(1, 2))
+            fig.subplots_adjust(left=0.07, right=0.98, bottom=0.14, top=0.88, wspace=0.45)
+        else:
+            fig, axes = _axes(2, ax)
+        a0, a1 = axes
+        for i, c in enumerate(mse.columns):
+            x = np.sort(mse[c].to_numpy(dtype=np.float64)[ok[c].to_numpy(dtype=bool)])
+            if not x.size:
+                continue
+            style = controller_style(str(c).split("_")[0] if c != "ftsmc_st" else c, i)
+            y = np.arange(1, x.size + 1) / len(mse)
+            kw = style.kwargs()
+            kw["label"] = _LABELS.get(str(c), style.label)
+            a0.step(x, y, where="post", **kw)
+        a0.set_xlabel("MSE (rad², mean over joints)")
+        a0.set_ylabel("share of draws (failed runs never count)")
+        a0.set_ylim(0, 1.02)
+        if _log_scale(mse.to_numpy(dtype=np.float64).ravel()):
+            a0.set_xscale("log")
+            _set_log(a0.xaxis)
+        a0.legend(loc="lower right", fontsize="small")
+        names = [
+            f"{_LABELS.get(a, a.upper())} < {_LABELS.get(b, b.upper())}"
+            for a, b in zip(pairs["a"], pairs["b"], strict=True)
+        ]
+        yy = np.arange(len(pairs))[::-1]
+        colors = {"holds": FRONT_COLOR, "reversed": _INFEASIBLE, "inconclusive": _OTHER}
+        for y, (_, r) in zip(yy, pairs.iterrows(), strict=True):
+            c = colors.get(str(r["verdict"]), _OTHER)
+            a1.plot([r["ci_low"], r["ci_high"]], [y, y], color=c, linewidth=2.5)
+            a1.plot([r["ratio"]], [y], "o", color=c)
+        a1.axvline(1.0, color="black", linewidth=0.8, linestyle=(0, (4.0, 2.5)))
+        a1.set_yticks(yy, names)
+        a1.set_xscale("log")
+        a1.margins(x=0.08)
+        a1.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+        a1.xaxis.set_minor_formatter(FormatStrFormatter("%g"))
+        a1.set_xlabel("geometric-mean MSE ratio A/B (95 % CI)")
+        a1.set_ylim(-0.7, len(pairs) - 0.3)
         if title:
             fig.suptitle(title)
     return fig

@@ -4,7 +4,8 @@
   validated ranges and the scenario's values; ``bounds`` overrides);
 - :mod:`~slidingarm.tune.evaluate` — a trial's scenario, its run(s) and its score;
 - :mod:`~slidingarm.tune.tuning` — :func:`tune`, resumable from its folder, and
-  :class:`TuneResult` (trials, Pareto front, export of a trial as a scenario file).
+  :class:`TuneResult` (trials, Pareto front, export of a trial as a scenario file);
+- :mod:`~slidingarm.tune.compare` — :func:`compare`, the fair comparison of the controllers.
 
 The package itself is callable, as :mod:`slidingarm.sweep` is: ``slidingarm.tune(scenario,
 controller="ftsmc", trials=100, out="dir")`` is :func:`slidingarm.tune.tuning.tune`, and
@@ -17,6 +18,7 @@ import sys
 import types
 from typing import Any
 
+from slidingarm.tune.compare import FULL, QUICK, Budget, CompareResult, compare
 from slidingarm.tune.evaluate import STATISTICS, Score, reduce, score, tuning_scenario, with_gains
 from slidingarm.tune.space import GainBound, GainSpace, gain_space, parse_bound
 from slidingarm.tune.tuning import (
@@ -30,12 +32,17 @@ from slidingarm.tune.tuning import (
 __all__ = [
     "DEFAULT_OBJECTIVES",
     "DEFAULT_POPULATION",
+    "FULL",
+    "QUICK",
     "SAMPLERS",
     "STATISTICS",
+    "Budget",
+    "CompareResult",
     "GainBound",
     "GainSpace",
     "Score",
     "TuneResult",
+    "compare",
     "gain_space",
     "parse_bound",
     "reduce",

@@ -131,6 +131,24 @@ class GainSpace:
                 return b
         raise KeyError(name)
 
+    def start(self, controller: SlidingModeController) -> dict[str, float]:
+        """The scenario's own gains of ``controller`` as a point of this space: a per-joint
+        value by its geometric mean (positive gains) or mean (the exponent), each clipped into
+        its interval."""
+        values = _tunable(controller)
+        out: dict[str, float] = {}
+        for b in self.bounds:
+            v = values[b.name]
+            arr = [float(x) for x in (v if isinstance(v, list) else [v])]
+            if len(set(arr)) == 1:
+                x = arr[0]  # exactly the scenario's value (exp(log(x)) may move it by an ulp)
+            elif b.log:
+                x = math.exp(sum(math.log(a) for a in arr) / len(arr))
+            else:
+                x = sum(arr) / len(arr)
+            out[b.name] = min(max(x, b.low), b.high)
+        return out
+
     def distributions(self) -> dict[str, Any]:
         """optuna's :class:`~optuna.distributions.FloatDistribution` of each tuned gain."""
         from optuna.distributions import FloatDistribution

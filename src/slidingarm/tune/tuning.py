@@ -26,6 +26,9 @@ differs, and a folder holding anything else is refused, never cleared.
 depend only on the seed and trials ``0..k-1``: a killed and resumed tuning gives the same trials
 as an uninterrupted one.
 
+**Baseline.** Unless ``baseline=False``, trial 0 is the scenario's own gains (enqueued with
+``Study.enqueue_trial``), so the table shows where the hand-tuned controller stands.
+
 **Failures.** A trial whose run (or any robust draw) diverges is told to optuna as
 ``TrialState.FAIL`` with the user attribute ``failure`` (the run's message); it counts toward the
 budget, is listed in ``trials.csv`` with state ``failed``, and the samplers ignore it.
@@ -584,6 +587,7 @@ def tune(
     seed: int = 0,
     population: int = DEFAULT_POPULATION,
     figure: bool = True,
+    baseline: bool = True,
     progress: Progress | None = None,
 ) -> TuneResult:
     """Tune one controller's gains of a scenario for the Pareto front of ``objectives``.
@@ -618,6 +622,9 @@ def tune(
         NSGA-II's population size (default :data:`DEFAULT_POPULATION`).
     figure : bool
         Draw ``pareto.png``/``.svg`` (about a second; the tables are always written).
+    baseline : bool
+        Trial 0 evaluates the scenario's own gains (:meth:`GainSpace.start`, clipped into the
+        bounds), so that the tuning reports the hand-tuned point and starts from it.
     progress : callable, optional
         ``progress(what, done, total)`` after each trial.
 
@@ -662,6 +669,7 @@ def tune(
             "sampler": sampler,
             "seed": seed,
             "population": population if sampler == "nsga2" else None,
+            "baseline": space.start(ctrl) if baseline else None,
         }
     )
     out_dir = Path(out)
@@ -683,6 +691,9 @@ def tune(
         kept = len(_finished(study))
         distributions = space.distributions()
         ran = 0
+        waiting = study.get_trials(deepcopy=False, states=(TrialState.WAITING,))
+        if baseline and kept == 0 and trials > 0 and not waiting:
+            study.enqueue_trial(space.start(ctrl))
         for k in range(kept, trials):
             study.sampler = _make_sampler(sampler, _trial_seed(seed, k), population)
             trial = study.ask(distributions)
