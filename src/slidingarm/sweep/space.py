@@ -80,7 +80,7 @@ class Distribution:
         ``uniform``: :math:`x \\sim U[lo, hi)`; ``normal``: :math:`x \\sim N(\\mu, \\sigma^2)`;
         ``loguniform``: :math:`\\log x \\sim U[\\log lo, \\log hi)`; ``choice``: each of
         ``values`` with probability :math:`1/m`.
-    values : tuple of float
+    values : sequence of float
         ``(lo, hi)``, ``(mu, sigma)``, ``(lo, hi)`` or the ``m`` choices.
     offset : bool
         Add the draw to the scenario's value (per joint for a vector) instead of replacing it.
@@ -101,6 +101,8 @@ class Distribution:
         if not isinstance(self.offset, bool):
             raise ValueError(f"offset must be true or false, got {self.offset!r}")
         vals = self.values
+        if isinstance(vals, list | np.ndarray):
+            vals = tuple(np.asarray(vals).tolist()) if isinstance(vals, np.ndarray) else tuple(vals)
         if not isinstance(vals, tuple) or not all(is_real(v, finite=True) for v in vals):
             raise ValueError(
                 f"{self.kind} takes a list of finite numbers, {KINDS[self.kind]}; got {vals!r}"
