@@ -619,6 +619,22 @@ def _headline(
         hit = pairs[(pairs["a"] == a) & (pairs["b"] == b)] if not pairs.empty else pairs
         if len(hit):
             parts.append(_pair_text(hit.iloc[0]) + ".")
+    over = []
+    for _, r in ctrl[ctrl["trial"] >= 0].iterrows():
+        for metric, column in (
+            ("peak_torque", "median_peak_torque"),
+            ("chattering", "median_chattering"),
+        ):
+            if metric in lim and float(r.get(column, math.nan)) > lim[metric]:
+                over.append(
+                    f"{_NAMES.get(r['controller'], r['controller'])}'s {metric.replace('_', ' ')}"
+                )
+    if over:
+        parts.append(
+            "The limits bind on the tuning draws; on the test draws the median of "
+            + ", ".join(over)
+            + " exceeds its limit."
+        )
     missing = ctrl[ctrl["trial"] < 0]["controller"].tolist()
     if missing:
         parts.append(f"No feasible gains for {', '.join(missing)} (left out of the test).")
