@@ -538,8 +538,7 @@ def compare(
     ] = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the tunings.")] = 0,
 ) -> None:
-    """Tune PDSMC, TSMC, FTSMC, NTSMC and FTSMC with super-twisting alike, test them on the
-    same Monte Carlo draws, and say whether FTSMC < TSMC < PDSMC holds."""
+    """Fair comparison: five controllers tuned alike, tested on the same draws, ranked."""
     from slidingarm.config import ConfigError
     from slidingarm.tune.compare import FULL, QUICK
     from slidingarm.tune.compare import compare as run_compare

@@ -129,8 +129,6 @@ QUICK = Budget(trials=6, robust=2, runs=40)
 
 DEFINITION = "compare.json"
 _FORMAT = "slidingarm-compare/1"
-_OURS = {DEFINITION, "tune", "sweep", "controllers.csv", "pairs.csv", "where.csv", "report.md",
-         "comparison.png", "comparison.svg"}  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)

@@ -109,9 +109,6 @@ EXPORTS = "exports"
 _LOCK = ".lock"
 _FORMAT = "slidingarm-tune/1"
 _STUDY = "tune"
-#: What a tuning folder may hold besides temporary files.
-_OURS = {DEFINITION, JOURNAL, JOURNAL + ".lock", TRIALS, PARETO, f"{FIGURE}.png",
-         f"{FIGURE}.svg", EXPORTS, _LOCK}  # fmt: skip
 
 
 # --------------------------------------------------------------------------------------------
