@@ -1,7 +1,11 @@
 """slidingarm: sliding-mode control of robot arms, simulated fast and checked against theory.
 
-The public API is exactly what this module re-exports.
+The public API is exactly what this module re-exports. ``sweep`` and ``tune`` (callable
+packages) and their results are imported on first use, so that ``import slidingarm`` does not
+load the scenario files' machinery, optuna or pyarrow.
 """
+
+from typing import TYPE_CHECKING, Any
 
 from slidingarm import robots  # the shipped robots: sa.robots.load(...)
 from slidingarm._version import __version__
@@ -50,6 +54,35 @@ from slidingarm.sensors import (
 )
 from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
 
+if TYPE_CHECKING:
+    from slidingarm import (
+        sweep,  # Monte Carlo; the package is callable: sa.sweep(scenario, runs=..., out=...)
+        tune,  # gain tuning; the package is callable: sa.tune(scenario, controller=..., ...)
+    )
+    from slidingarm.sweep import SweepResult
+    from slidingarm.tune import TuneResult
+
+#: The names imported on first use: (module, attribute or None for the module itself).
+_LAZY: dict[str, tuple[str, str | None]] = {
+    "sweep": ("slidingarm.sweep", None),
+    "SweepResult": ("slidingarm.sweep", "SweepResult"),
+    "tune": ("slidingarm.tune", None),
+    "TuneResult": ("slidingarm.tune", "TuneResult"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        module, attr = _LAZY[name]
+        value = importlib.import_module(module)
+        if attr is not None:
+            value = getattr(value, attr)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'slidingarm' has no attribute {name!r}")
+
 __all__ = [
     "FTSMC",
     "NTSMC",
@@ -87,13 +120,17 @@ __all__ = [
     "SlidingModeController",
     "SteppedArm",
     "SteppedPlant",
+    "SweepResult",
     "TableReference",
     "TrueVelocity",
+    "TuneResult",
     "__version__",
     "check_controller",
     "ftsm_convergence_time",
     "robots",
     "simulate",
     "simulate_batch",
+    "sweep",
     "tsm_convergence_time",
+    "tune",
 ]

@@ -1,7 +1,7 @@
 """The ``slidingarm`` command line: thin verbs that parse, validate, call the library, report.
 
-Verbs: ``reproduce`` (the whole study), ``run`` (one scenario), ``validate``, ``list``,
-``schema``; ``--version``. A user mistake (missing or invalid scenario file, unusable output
+Verbs: ``reproduce`` (the whole study), ``run`` (one scenario), ``sweep`` (Monte Carlo over a
+scenario), ``validate``, ``list``, ``schema``; ``--version``. A user mistake (missing or invalid scenario file, unusable output
 folder, a file or folder the system refuses, e.g. a full disk) prints one line on stderr and
 exits with status 2; a diverging simulation or a failed
 check of the study exits with 1; an interrupt with 130. Progress bars go to stderr and only
@@ -284,6 +284,344 @@ def schema() -> None:
     from slidingarm.config import Scenario
 
     typer.echo(json.dumps(Scenario.model_json_schema(), indent=2, ensure_ascii=False))
+
+
+@app.command(name="sweep")
+def sweep_(
+    config: Annotated[
+        str, typer.Argument(help="Scenario file, or the name of a shipped scenario.")
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Sweep folder (created, or resumed if it holds this sweep).")
+    ],
+    runs: Annotated[
+        int | None, typer.Option("--runs", "-n", help="Number of draws (default: [sweep] runs).")
+    ] = None,
+    vary: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--vary",
+            help="KEY=DIST, e.g. 'gains.k=uniform(10,40)', 'simulation.q0=+normal(0,0.05)' (+: "
+            "an offset); adds to or replaces the [sweep] table's entry. Repeatable.",
+        ),
+    ] = None,
+    dask: Annotated[
+        str | None,
+        typer.Option(
+            "--dask",
+            help="Run the chunks on Dask: 'local' or 'local:W' (a LocalCluster of W processes) "
+            "or a scheduler ADDRESS.",
+        ),
+    ] = None,
+    chunk: Annotated[
+        int | None, typer.Option("--chunk", help="Draws per chunk and shard.")
+    ] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", help="Seed of the draws (default: [sweep] seed).")
+    ] = None,
+    figures: Annotated[
+        bool, typer.Option("--figures/--no-figures", help="Draw the figures.")
+    ] = True,
+) -> None:
+    """Monte Carlo over a scenario: every controller on the same draws, resumable."""
+    from slidingarm.config import ConfigError
+    from slidingarm.study import scenarios_dir
+    from slidingarm.sweep import sweep as run_sweep
+    from slidingarm.sweep.summary import summary_text
+
+    with _errors():
+        # the shipped sweeps (robust) by name, as run takes the shipped scenarios
+        shipped = scenarios_dir() / f"{config}.toml"
+        if not Path(config).exists() and "/" not in config and shipped.is_file():
+            config = str(shipped)
+        scenario = _load(config)
+        entries: dict[str, str] = {}
+        for item in vary or []:
+            key, eq, dist = item.partition("=")
+            if not eq or not key.strip():
+                raise ConfigError(
+                    f"must be KEY=DIST, e.g. 'gains.k=uniform(10,40)', got {item!r}", path="--vary"
+                )
+            entries[key.strip()] = dist
+        with _sweep_progress() as progress:
+            result = run_sweep(
+                scenario,
+                runs=runs,
+                out=out,
+                vary=entries,
+                seed=seed,
+                chunk=chunk,
+                executor=dask,
+                progress=progress,
+                figures=figures,
+            )
+    d = result.definition
+    typer.echo(
+        f"wrote {out}: {d.runs} draws × {len(result.table['controller'].unique())} controllers "
+        f"in {d.n_chunks} chunks ({result.computed} run now, {result.resumed} resumed) in "
+        f"{result.runtime_s:.1f} s; {result.status}"
+    )
+    typer.echo("varied: " + ", ".join(f"{k} ~ {v}" for k, v in d.distributions.items()))
+    typer.echo(summary_text(result.summary))
+
+
+@contextmanager
+def _sweep_progress() -> Iterator[Callable[[int, int], None] | None]:
+    """A rich progress bar with rate and ETA on stderr when it is a terminal; else none."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    bar = Progress(
+        TextColumn("sweep"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TaskProgressColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    task = bar.add_task("sweep", total=None, rate="")
+    first: list[tuple[float, int]] = []
+
+    def update(done: int, total: int) -> None:
+        import time
+
+        now = time.perf_counter()
+        if not first:
+            # resumed draws are not progress made now: they count in neither rate nor ETA
+            first.append((now, done))
+            bar.reset(task, total=total, completed=done, rate="")
+            return
+        t0, d0 = first[0]
+        rate = f"{(done - d0) / (now - t0):.1f} draws/s" if now > t0 and done > d0 else ""
+        bar.update(task, completed=done, total=total, rate=rate)
+
+    with bar:
+        yield update
+
+
+def _pareto_lines(result: Any, limit: int = 20) -> list[str]:
+    """The Pareto front as text: trial, gains, objectives; the knee marked ``*``."""
+    front = result.pareto
+    if front.empty:
+        return []
+    best = result.best
+    names = [*result.space.names, *result.objectives]
+    lines = ["  trial " + "".join(f"{n:>13}" for n in names)]
+    for _, row in front.head(limit).iterrows():
+        mark = "*" if int(row["trial"]) == best else " "
+        lines.append(
+            f"{mark}{int(row['trial']):>6} " + "".join(f"{float(row[n]):>13.5g}" for n in names)
+        )
+    if len(front) > limit:
+        lines.append(f"  ... {len(front) - limit} more in {result.out_dir / 'pareto.csv'}")
+    lines.append(f"  * the knee (--export best): trial {best}")
+    return lines
+
+
+def _pairs(values: list[str] | None, option: str) -> dict[str, float]:
+    from slidingarm.config import ConfigError
+
+    out: dict[str, float] = {}
+    for text in values or []:
+        name, sep, value = text.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if not sep or not name.strip() or number != number:
+            raise ConfigError(f"expected METRIC=VALUE, got {text!r}", path=option)
+        out[name.strip()] = number
+    return out
+
+
+@app.command()
+def tune(
+    config: Annotated[
+        str, typer.Argument(help="Scenario file, or the name of a shipped scenario.")
+    ],
+    controller: Annotated[
+        str,
+        typer.Option(
+            "--controller",
+            "-c",
+            help="The controller to tune: a label of the scenario, or a class (pdsmc, tsmc, "
+            "ftsmc, ntsmc) added with its shared gains.",
+        ),
+    ],
+    trials: Annotated[int, typer.Option("--trials", "-n", min=1, help="Total trial budget.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Tuning folder (resumed if it exists).")],
+    objectives: Annotated[
+        str, typer.Option("--objectives", help="Metrics to minimise, comma-separated.")
+    ] = "mse,chattering,peak_torque",
+    robust: Annotated[
+        int,
+        typer.Option(
+            "--robust", min=0, help="Score each trial on the scenario's [sweep] draws 0..K-1."
+        ),
+    ] = 0,
+    statistic: Annotated[
+        str, typer.Option("--statistic", help="Reduction over the draws: mean or p90.")
+    ] = "mean",
+    bound: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--bound", help="Gain interval NAME=LOW:HIGH[:log|linear] or NAME=fixed (repeat)."
+        ),
+    ] = None,
+    limit: Annotated[
+        list[str] | None,
+        typer.Option("--limit", help="Constraint METRIC=VALUE: metric <= value (repeat)."),
+    ] = None,
+    export: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--export", help="Write trial TRIAL (or 'best', the knee) as a scenario file (repeat)."
+        ),
+    ] = None,
+    sampler: Annotated[str, typer.Option("--sampler", help="nsga2 or tpe.")] = "nsga2",
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the sampler.")] = 0,
+    population: Annotated[
+        int, typer.Option("--population", min=2, help="NSGA-II's population size.")
+    ] = 20,
+) -> None:
+    """Tune one controller's gains with optuna: Pareto front, figure, exports; resumable."""
+    from slidingarm.config import ConfigError
+    from slidingarm.tune import parse_bound
+    from slidingarm.tune import tune as run_tuning
+
+    with _errors():
+        scenario = _load(config)
+        bounds = dict(parse_bound(b) for b in bound or [])
+        limits = _pairs(limit, "--limit")
+        wanted: list[int | str] = []
+        for e in export or []:
+            if e != "best" and not e.isdigit():
+                raise ConfigError(f"expected a trial number or 'best', got {e!r}", path="--export")
+            wanted.append("best" if e == "best" else int(e))
+        names = [o.strip() for o in objectives.split(",") if o.strip()]
+        try:
+            with _progress() as progress:
+                result = run_tuning(
+                    scenario,
+                    controller=controller,
+                    trials=trials,
+                    out=out,
+                    objectives=names,
+                    bounds=bounds,
+                    limits=limits,
+                    robust=robust,
+                    statistic=statistic,  # type: ignore[arg-type]
+                    sampler=sampler,  # type: ignore[arg-type]
+                    seed=seed,
+                    population=population,
+                    progress=progress,
+                )
+        except KeyboardInterrupt:
+            _fail(
+                f"interrupted; the finished trials are kept in {out}: rerun the same command to "
+                "resume",
+                EXIT_INTERRUPTED,
+            )
+    typer.echo(
+        f"tuned {result.controller} of {scenario.key} in {out}: {result.message} "
+        f"({result.ran} run now, {result.kept} kept) in {result.runtime_s:.1f} s"
+    )
+    for line in _pareto_lines(result):
+        typer.echo(line)
+    if not result.ok:
+        _fail(result.message, EXIT_FAILED)
+    for k in wanted:
+        try:
+            path = result.export(k)  # type: ignore[arg-type]
+        except ValueError as exc:
+            _fail(f"--export {k}: {exc}", EXIT_USAGE)
+        typer.echo(f"exported {path} (slidingarm run {path} --out DIR)")
+
+
+@app.command()
+def compare(
+    config: Annotated[
+        str,
+        typer.Argument(help="Scenario file with a [sweep] table (e.g. the shipped robust.toml)."),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Comparison folder (resumed).")],
+    quick: Annotated[
+        bool, typer.Option("--quick", help="A smoke run of the pipeline (under a minute).")
+    ] = False,
+    limit: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--limit", help="Constraint METRIC=VALUE of every tuning (default: the scenario's)."
+        ),
+    ] = None,
+    vary: Annotated[
+        list[str] | None,
+        typer.Option("--vary", help="Add a draw to the [sweep]: KEY=DIST, e.g. mismatch.payload=uniform(0,0.5)."),
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the tunings.")] = 0,
+) -> None:
+    """Fair comparison: five controllers tuned alike, tested on the same draws, ranked."""
+    from slidingarm.config import ConfigError
+    from slidingarm.tune.compare import FULL, QUICK
+    from slidingarm.tune.compare import compare as run_compare
+
+    with _errors():
+        path = Path(config)
+        if not path.is_file() and config == "robust":
+            from slidingarm.study import scenarios_dir
+
+            path = scenarios_dir() / "robust.toml"
+        scenario = _load(str(path))
+        limits = _pairs(limit, "--limit") if limit else None
+        draws: dict[str, str] = {}
+        for text in vary or []:
+            key, sep, dist = text.partition("=")
+            if not sep or not key.strip():
+                raise ConfigError(f"expected KEY=DIST, got {text!r}", path="--vary")
+            draws[key.strip()] = dist.strip()
+        try:
+            with _progress() as progress:
+                result = run_compare(
+                    scenario,
+                    out=out,
+                    budget=QUICK if quick else FULL,
+                    limits=limits,
+                    vary=draws or None,
+                    seed=seed,
+                    progress=progress,
+                )
+        except KeyboardInterrupt:
+            _fail(
+                f"interrupted; finished trials and chunks are kept in {out}: rerun the same "
+                "command to resume",
+                EXIT_INTERRUPTED,
+            )
+    typer.echo(result.headline)
+    typer.echo(f"{'controller':<10}{'median MSE':>12}{'95 % CI':>24}{'success':>9}  gains")
+    for _, r in result.controllers.iterrows():
+        ci = (
+            f"[{r.get('median_low', float('nan')):.4g}, {r.get('median_high', float('nan')):.4g}]"
+        )
+        typer.echo(
+            f"{r['controller']:<10}{r.get('median_mse', float('nan')):>12.4g}{ci:>24}"
+            f"{r.get('success', float('nan')):>9.1%}  {r['gains']}"
+        )
+    typer.echo(f"report: {out / 'report.md'} ({result.runtime_s:.0f} s)")
 
 
 def _click_error(name: str) -> type[Exception]:

@@ -32,6 +32,7 @@ from slidingarm.config.specs import (
     SimulationSpec,
     SineReferenceSpec,
     SinusoidalDisturbanceSpec,
+    SweepSpec,
     TableReferenceSpec,
     VelocitySpec,
     _build_disturbance,
@@ -128,6 +129,11 @@ class Scenario(_Strict):
     disturbances: list[DisturbanceSpec] = Field(default_factory=list)
     gains: GainsSpec = GainsSpec()
     controllers: list[ControllerSpec] = Field(min_length=1)
+    sweep: SweepSpec | None = Field(
+        default=None,
+        description="A Monte Carlo sweep of this scenario (slidingarm sweep only): runs, seed, "
+        'chunk and distributions keyed by dotted paths ("gains.k" = { uniform = [10, 40] }).',
+    )
 
     _source: Path | None = PrivateAttr(default=None)
     _base_dir: Path | None = PrivateAttr(default=None)

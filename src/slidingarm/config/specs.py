@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
+    ConfigDict,
     Field,
     StrictBool,
     ValidationInfo,
@@ -650,6 +651,47 @@ class ControllerSpec(_GainFields, _ControllerHead):
     def key(self) -> str:
         """The label, or the name."""
         return self.label or self.name
+
+
+# --------------------------------------------------------------------------------------------
+# sweep
+
+
+class SweepSpec(_Strict):
+    """A Monte Carlo sweep over this scenario (``slidingarm sweep``); every other verb ignores
+    it. Each key other than ``runs``, ``seed`` and ``chunk`` is a dotted path of the scenario
+    with its distribution: ``"gains.k" = { uniform = [10, 40] }``,
+    ``"simulation.q0" = { normal = [0, 0.05], offset = true }``
+    (:class:`slidingarm.sweep.Distribution`)."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    runs: PositiveInt | None = Field(default=None, description="Number of draws (runs).")
+    seed: NonNegativeInt | None = Field(
+        default=None, description="Seed of the draws (default: simulation.seed)."
+    )
+    chunk: PositiveInt | None = Field(
+        default=None, description="Runs per chunk (one Parquet shard each)."
+    )
+
+    @model_validator(mode="after")
+    def _distributions(self) -> SweepSpec:
+        from slidingarm.sweep.space import Distribution, parse_key
+
+        for key, spec in (self.model_extra or {}).items():
+            try:
+                parse_key(key)
+                Distribution.from_spec(key, spec)
+            except ConfigError as exc:
+                where = f'"{key}"' if exc.path == key else exc.path.removeprefix("sweep.")
+                raise ValueError(f"{where}: {exc.reason}") from None
+        return self
+
+    def distributions(self) -> dict[str, Any]:
+        """The distributions by dotted key, in the file's order."""
+        from slidingarm.sweep.space import Distribution
+
+        return {k: Distribution.from_spec(k, v) for k, v in (self.model_extra or {}).items()}
 
 
 def _gain_names(name: str) -> str:

@@ -1,0 +1,45 @@
+"""Monte Carlo sweeps over a scenario's numeric keys (``slidingarm sweep``).
+
+- :mod:`~slidingarm.sweep.space` -- what varies: :class:`Distribution`, :func:`apply`,
+  :func:`numeric_keys`;
+- :mod:`~slidingarm.sweep.staging` -- each draw's values and seed, and its run's objects;
+- :mod:`~slidingarm.sweep.run` -- :func:`sweep`: chunks, executors, the resumable folder;
+- :mod:`~slidingarm.sweep.summary` -- medians with bootstrap intervals, success rates.
+
+The package itself is callable: ``slidingarm.sweep(scenario, runs=1000, out="dir")`` is
+:func:`slidingarm.sweep.run.sweep`, and ``import slidingarm.sweep.space`` still works.
+"""
+
+from __future__ import annotations
+
+import sys
+import types
+from typing import Any
+
+from slidingarm.sweep.run import SweepDefinition, SweepError, SweepResult, run_chunk, sweep
+from slidingarm.sweep.space import Distribution, apply, numeric_keys
+from slidingarm.sweep.summary import success_rates, summarize
+
+__all__ = [
+    "Distribution",
+    "SweepDefinition",
+    "SweepError",
+    "SweepResult",
+    "apply",
+    "numeric_keys",
+    "run_chunk",
+    "success_rates",
+    "summarize",
+    "sweep",
+]
+
+
+class _Callable(types.ModuleType):
+    """This package, callable: ``slidingarm.sweep(scenario, runs=..., out=...)`` is
+    :func:`slidingarm.sweep.run.sweep`."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> SweepResult:
+        return sweep(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _Callable
