@@ -73,7 +73,12 @@ W_T = 74  # 12: the body's rotation and origin in the root frame (coriolis_into)
 W_CS = 101  # 2: cos and sin of each coordinate
 WORK_ROWS = 103
 
-_OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
+# fastmath "contract" only lets LLVM fuse a product and a sum into one FMA (one rounding
+# instead of two, so each such result is as accurate or more): no reassociation, no
+# assumption about NaN, infinities or signed zeros, so a non-finite state still propagates to
+# the loop's checks. Results move by ulps; the agreement tests (1e-9 against Pinocchio, 1e-6
+# closed loop against MuJoCo) are far coarser. Measured: -10 % on the step, -20 % on ABA.
+_OPTS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
 # the small spatial-algebra helpers are inlined by numba: LLVM kept the largest of them
 # (_carry_inertia, 22 arguments) a call, with its result returned through memory, six times
 # per articulated-body pass
@@ -575,8 +580,8 @@ def _carry_inertia(
     )
 
 
-@njit(**_OPTS)
-def aba_known(
+@njit(**_INLINE)
+def _aba(
     p: np.ndarray,
     g: float,
     q: np.ndarray,
@@ -822,16 +827,17 @@ def aba_known(
         s3 = work[_AB_S + 3, i]
         s4 = work[_AB_S + 4, i]
         s5 = work[_AB_S + 5, i]
-        u0 = a00 * s0 + a01 * s1 + a02 * s2 + b00 * s3 + b01 * s4 + b02 * s5
-        u1 = a01 * s0 + a11 * s1 + a12 * s2 + b10 * s3 + b11 * s4 + b12 * s5
-        u2 = a02 * s0 + a12 * s1 + a22 * s2 + b20 * s3 + b21 * s4 + b22 * s5
-        u3 = b00 * s0 + b10 * s1 + b20 * s2 + c00 * s3 + c01 * s4 + c02 * s5
-        u4 = b01 * s0 + b11 * s1 + b21 * s2 + c01 * s3 + c11 * s4 + c12 * s5
-        u5 = b02 * s0 + b12 * s1 + b22 * s2 + c02 * s3 + c12 * s4 + c22 * s5
-        d = s0 * u0 + s1 * u1 + s2 * u2 + s3 * u3 + s4 * u4 + s5 * u5
+        # the sums in pairs: this pass is one chain of dependent operations, body to body
+        u0 = (a00 * s0 + a01 * s1) + (a02 * s2 + b00 * s3) + (b01 * s4 + b02 * s5)
+        u1 = (a01 * s0 + a11 * s1) + (a12 * s2 + b10 * s3) + (b11 * s4 + b12 * s5)
+        u2 = (a02 * s0 + a12 * s1) + (a22 * s2 + b20 * s3) + (b21 * s4 + b22 * s5)
+        u3 = (b00 * s0 + b10 * s1) + (b20 * s2 + c00 * s3) + (c01 * s4 + c02 * s5)
+        u4 = (b01 * s0 + b11 * s1) + (b21 * s2 + c01 * s3) + (c11 * s4 + c12 * s5)
+        u5 = (b02 * s0 + b12 * s1) + (b22 * s2 + c02 * s3) + (c12 * s4 + c22 * s5)
+        d = (s0 * u0 + s1 * u1) + (s2 * u2 + s3 * u3) + (s4 * u4 + s5 * u5)
         if not d > 0.0:
             return False
-        u = tau[i] - (s0 * pn0 + s1 * pn1 + s2 * pn2 + s3 * pf0 + s4 * pf1 + s5 * pf2)
+        u = tau[i] - ((s0 * pn0 + s1 * pn1) + (s2 * pn2 + s3 * pf0) + (s4 * pf1 + s5 * pf2))
         rd = 1.0 / d
         work[_AB_U, i] = u0
         work[_AB_U + 1, i] = u1
@@ -885,8 +891,9 @@ def aba_known(
     cz = 0.0
     for i in range(n):
         ua = (
-            work[_AB_U, i] * bx + work[_AB_U + 1, i] * by + work[_AB_U + 2, i] * bz
-            + work[_AB_U + 3, i] * cx + work[_AB_U + 4, i] * cy + work[_AB_U + 5, i] * cz
+            (work[_AB_U, i] * bx + work[_AB_U + 1, i] * by)
+            + (work[_AB_U + 2, i] * bz + work[_AB_U + 3, i] * cx)
+            + (work[_AB_U + 4, i] * cy + work[_AB_U + 5, i] * cz)
         )  # fmt: skip
         qdd = (work[_AB_UU, i] - ua) * work[_AB_RD, i]
         out[i] = qdd
@@ -897,6 +904,21 @@ def aba_known(
         cy += work[_AB_S + 4, i] * qdd
         cz += work[_AB_S + 5, i] * qdd
     return True
+
+
+@njit(**_OPTS)
+def aba_known(
+    p: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """The articulated-body algorithm (:func:`_aba`, inlined where it is called: in
+    :func:`rk4_step` it runs once per stage) as a function of its own."""
+    return _aba(p, g, q, qd, tau, out, work)
 
 
 @njit(**_OPTS)
@@ -917,7 +939,7 @@ def forward_dynamics_into(
     out = _borrow(out)
     work = _borrow(work)
     _angles_into(q, work)
-    return aba_known(p, g, q, qd, tau, out, work)
+    return _aba(p, g, q, qd, tau, out, work)
 
 
 @njit(**_OPTS)
@@ -1203,16 +1225,20 @@ def rk4_step(
     for i in range(n):
         base[0, i] = work[W_CS, i]
         base[1, i] = work[W_CS + 1, i]
-    ok = aba_known(p, g, q, qd, tau, k[0], work)
-    for s in range(1, 4):
-        c = 1.0 if s == 3 else 0.5
-        for i in range(n):
-            v_prev = qd[i] if s == 1 else qd[i] + 0.5 * h * k[s - 2, i]
-            dq[i] = c * h * v_prev
-            qtmp[i] = q[i] + dq[i]
-            vtmp[i] = qd[i] + c * h * k[s - 1, i]
-        _angles_shifted_into(base, dq, qtmp, work)
-        ok &= aba_known(p, g, qtmp, vtmp, tau, k[s], work)
+    for i in range(n):
+        qtmp[i] = q[i]
+        vtmp[i] = qd[i]
+    ok = True
+    for s in range(4):
+        if s > 0:
+            c = 1.0 if s == 3 else 0.5
+            for i in range(n):
+                v_prev = qd[i] if s == 1 else qd[i] + 0.5 * h * k[s - 2, i]
+                dq[i] = c * h * v_prev
+                qtmp[i] = q[i] + dq[i]
+                vtmp[i] = qd[i] + c * h * k[s - 1, i]
+            _angles_shifted_into(base, dq, qtmp, work)
+        ok &= _aba(p, g, qtmp, vtmp, tau, k[s], work)
     for i in range(n):
         v1 = qd[i]
         v2 = qd[i] + 0.5 * h * k[0, i]
