@@ -17,6 +17,15 @@ callers pass the outputs and a ``(WORK_ROWS, n)`` workspace (column ``i`` belong
 A revolute joint places its body at ``x_parent = R0 Rot(a, q) x + p0``, a prismatic one at
 ``x_parent = R0 (x + a q) + p0``. Gravity is ``(0, 0, -g)`` in the root frame.
 
+**The kernels take the table in joint-aligned frames** (:func:`aligned`, built once per arm
+by :attr:`slidingarm.SerialArm.params`): each body's frame turned about its origin so that
+its joint's axis is ``a = e_z``, which describes the same arm. Any axis can be aligned, so
+this is the general path; for the axis-aligned URDFs of the UR5 and the Panda the turns are
+exact signed permutations. The kinematics, Newton-Euler and the articulated-body algorithm
+are written for ``a = e_z`` (Pinocchio's RevoluteZ and PrismaticZ: ``S`` is a unit
+coordinate vector, ``Rot(e_z, q)`` has four non-trivial entries); the composite-rigid-body
+and Coriolis kernels read the axis rows.
+
 **Spatial algebra** (Featherstone, *Rigid Body Dynamics Algorithms*, 2008), in each body's own
 frame: a motion is ``(ω, v)`` (angular first, linear velocity of the frame's origin), a force
 ``(n, f)``. The rigid-body inertia acts as ``I (ω, v) = (I_o ω + h × v, m v - h × ω)``, the
@@ -32,10 +41,14 @@ O(n); the composite-rigid-body algorithm (``M``), O(n²); the articulated-body a
 as the root's acceleration ``(0, 0, 0, 0, 0, g)``.
 
 **Workspace contract** (see :mod:`slidingarm.models._dispatch`): every kernel that evaluates
-at ``q`` leaves in rows 0-11 the q-only kinematics of ``q`` — the body's rotation ``R_pc``
-(rows 0-8) and origin ``r`` (rows 9-11) in its parent, and the cosine and sine of each
-coordinate (rows ``W_CS``, ``W_CS + 1``) — which :func:`rk4_step` reuses when told they are
-known.
+at ``q`` leaves in rows ``W_CS``, ``W_CS + 1`` the cosine and sine of each coordinate, which
+:func:`rk4_step` reuses when told they are known (the articulated-body algorithm builds each
+body's pose from them); those that go through :func:`kinematics_into` also leave in rows
+0-11 the body's rotation ``R_pc`` (rows 0-8) and origin ``r`` (rows 9-11) in its parent.
+
+**Cost** (``benchmarks/bench_serial.py``): the kernels reached through an address borrow
+their arrays (:func:`_borrow`) and the spatial helpers are inlined, so a step pays neither
+reference-count atomics nor calls inside a pass.
 """
 
 from __future__ import annotations
