@@ -1,19 +1,24 @@
 """Cost of one closed-loop step on the UR5: the compiled loop against the same loop stepping
 Pinocchio from Python, and the dynamics kernels against Pinocchio's.
 
-Run as ``python benchmarks/bench_serial.py [--repeats R]``. Prints medians (and the 10th-90th
-percentile spread) of microseconds, and the ratios measured in this one run:
+Run as ``python benchmarks/bench_serial.py [--repeats R] [--clock wall|cpu]``. Prints medians
+(and the 10th-90th percentile spread) of microseconds, and the ratios measured in this one
+run. ``--clock cpu`` times with the calling thread's CPU time (``time.thread_time``; every
+timed piece runs in that thread) instead of the wall clock, so that time the thread spends
+descheduled on a shared machine is not counted; the default is the wall clock:
 
 1. **compiled step**: ``simulate`` on the UR5 (FTSMC, tanh, exact nominal model, quintic
    reference, full record) for 1 s and for 5 s at ``dt = 1 ms``; the difference over the
-   4000 extra steps is the cost of one step — the law (``M`` by the composite-rigid-body
-   algorithm, ``h`` by Newton-Euler, a Cholesky solve) plus one RK4 step (four
-   articulated-body passes) plus recording — without the per-run set-up.
+   4000 extra steps is the cost of one step — the law (``τ`` by Newton-Euler at the
+   commanded acceleration) plus one RK4 step (four articulated-body passes) plus recording —
+   without the per-run set-up.
 2. **Pinocchio from Python**: the same law with ``pin.rnea`` (``τ = M u + h`` in one call)
    and RK4 with four ``pin.aba`` calls, in a Python loop with numpy for the rest.
 3. The kernels one state at a time from a jitted loop: ``M`` + ``h``, and ``q̈``, against
    ``pin.crba`` + ``pin.rnea`` and ``pin.aba`` called from Python (the call overhead is part
-   of what a Python loop pays).
+   of what a Python loop pays); and the step's own pieces, each through the kind's dispatch
+   as the loop calls them: the law's Newton-Euler (with the kinematics of ``q``) and one RK4
+   step (four articulated-body passes, the stages' sines and cosines rotated).
 
 Targets (issue 9): compiled step <= 5 µs and >= 20x faster than the Pinocchio loop.
 """
@@ -41,13 +46,17 @@ def _stats(x: np.ndarray) -> str:
     return f"{np.median(x):8.2f} µs  [{np.percentile(x, 10):.2f}, {np.percentile(x, 90):.2f}]"
 
 
+#: The clock every timing reads (``--clock``).
+_clock: Callable[[], float] = time.perf_counter
+
+
 def _time(fn: Callable[[], object], repeats: int, per: int) -> np.ndarray:
     fn()
     out = np.empty(repeats)
     for r in range(repeats):
-        t0 = time.perf_counter()
+        t0 = _clock()
         fn()
-        out[r] = (time.perf_counter() - t0) / per * 1e6
+        out[r] = (_clock() - t0) / per * 1e6
     return out
 
 
@@ -58,10 +67,10 @@ def compiled_step(repeats: int) -> np.ndarray:
     ref = QuinticReference(q0, np.full(arm.n, 0.5), duration=5.0)
 
     def run(t_final: float) -> float:
-        t0 = time.perf_counter()
+        t0 = _clock()
         res = simulate(arm, ctrl, ref, q0=q0, t_final=t_final, dt=DT)
         assert res.success, res.message
-        return time.perf_counter() - t0
+        return _clock() - t0
 
     run(1.0)
     out = np.empty(repeats)
@@ -123,6 +132,21 @@ def _fd_loop(kind, p, g, q, qd, tau, out):  # type: ignore[no-untyped-def]  # pr
         D.forward_dynamics(kind, p, g, q[i], qd[i], tau[i], out[i], work)
 
 
+@njit(cache=False)
+def _id_loop(kind, p, g, q, qd, qdd, out):  # type: ignore[no-untyped-def]  # pragma: no cover
+    work = np.empty((D.WORK_ROWS, q.shape[1]))
+    for i in range(q.shape[0]):
+        D.inverse_dynamics(kind, p, g, q[i], qd[i], qdd[i], out[i], work)
+
+
+@njit(cache=False)
+def _rk4_loop(kind, p, g, q, qd, tau):  # type: ignore[no-untyped-def]  # pragma: no cover
+    work = np.empty((D.WORK_ROWS, q.shape[1]))
+    scratch = np.empty((D.RK4_ROWS, q.shape[1]))
+    for i in range(q.shape[0]):
+        D.rk4_step(kind, p, g, q[i], qd[i], tau[i], DT, False, scratch, work)
+
+
 def kernels(repeats: int, batch: int = 1000) -> dict[str, np.ndarray]:
     arm = robots.load("ur5")
     hd = arm.handle
@@ -135,6 +159,8 @@ def kernels(repeats: int, batch: int = 1000) -> dict[str, np.ndarray]:
     mm = np.empty((batch, arm.n, arm.n))
     h = np.empty((batch, arm.n))
     out = np.empty((batch, arm.n))
+    q_rk = q.copy()  # stepped in place by the RK4 timing
+    qd_rk = qd.copy()
     small = 200
 
     def pin_mh() -> None:
@@ -155,15 +181,24 @@ def kernels(repeats: int, batch: int = 1000) -> dict[str, np.ndarray]:
             lambda: _fd_loop(hd.kind, hd.params, hd.g, q, qd, tau, out), repeats, batch
         ),
         "q̈, pin.aba from Python": _time(pin_fd, repeats, small),
+        "law: τ by Newton-Euler, compiled": _time(
+            lambda: _id_loop(hd.kind, hd.params, hd.g, q, qd, tau, out), repeats, batch
+        ),
+        "one RK4 step (4 x ABA), compiled": _time(
+            lambda: _rk4_loop(hd.kind, hd.params, hd.g, q_rk, qd_rk, tau), repeats, batch
+        ),
     }
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--clock", choices=("wall", "cpu"), default="wall")
     args = ap.parse_args()
+    global _clock
+    _clock = time.thread_time if args.clock == "cpu" else time.perf_counter
     print(
-        f"# {platform.processor() or platform.machine()}, numba {numba.__version__}, pin {pin.__version__}, threads {numba.config.NUMBA_NUM_THREADS}"
+        f"# {platform.processor() or platform.machine()}, numba {numba.__version__}, pin {pin.__version__}, threads {numba.config.NUMBA_NUM_THREADS}, clock {args.clock}"
     )
     ours = compiled_step(args.repeats)
     theirs = pinocchio_step(args.repeats)

@@ -324,6 +324,52 @@ def test_shipped_robots_match_pinocchio_and_mujoco(name: str) -> None:
     assert _rel_err(ours, mj["qdd"]) <= TOL_MUJOCO
 
 
+# ---------------------------------------------------------------------- aligned frames
+def _aligned_arms() -> list[object]:
+    from slidingarm import robots
+
+    return [_case(i).arm for i in CASES] + [robots.load("ur5"), robots.load("panda")]
+
+
+def test_aligned_frames_turn_each_axis_to_z() -> None:
+    """The kernels' table (``SK.aligned``): each frame ``Q_i`` is a rotation whose third
+    column is the joint's axis; in the aligned table every axis is ``e_z``, mass, ``|h|``
+    and the trace of ``I_o`` are unchanged, and aligning it again changes nothing."""
+    from slidingarm.models import _spatial as SK
+
+    for arm in _aligned_arms():
+        t = arm.table
+        al, frames = SK.aligned(t)
+        for i in range(arm.n):
+            qf = frames[i]
+            assert np.max(np.abs(qf.T @ qf - np.eye(3))) <= 1e-15
+            assert np.linalg.det(qf) == pytest.approx(1.0, abs=1e-15)
+            assert np.max(np.abs(qf[:, 2] - t[SK.P_AXIS : SK.P_AXIS + 3, i])) <= 1e-16
+        assert np.all(al[SK.P_AXIS : SK.P_AXIS + 3] == np.array([[0.0], [0.0], [1.0]]))
+        assert np.array_equal(al[SK.P_TYPE : SK.P_MASS + 1], t[SK.P_TYPE : SK.P_MASS + 1])
+        for rows in (slice(SK.P_H, SK.P_H + 3), slice(9, 12)):
+            norms = np.linalg.norm(al[rows], axis=0), np.linalg.norm(t[rows], axis=0)
+            assert np.allclose(*norms, rtol=1e-15, atol=0)
+        trace = slice(SK.P_IO, SK.P_IO + 3)
+        assert np.allclose(al[trace].sum(axis=0), t[trace].sum(axis=0), rtol=1e-14, atol=0)
+        again, ident = SK.aligned(al)
+        assert np.array_equal(again, al)
+        assert np.array_equal(ident, np.broadcast_to(np.eye(3), ident.shape))
+        assert np.array_equal(arm.params[: SK.ROWS], al)
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5"])
+def test_shipped_robots_align_by_exact_signed_permutations(name: str) -> None:
+    """Their URDF axes lie along coordinate axes, so the frame turns are exact: every entry
+    of every ``Q_i`` is 0 or ±1 (nothing is rounded by aligning their frames)."""
+    from slidingarm import robots
+    from slidingarm.models import _spatial as SK
+
+    _, frames = SK.aligned(robots.load(name).table)
+    assert np.all(np.isin(frames, (-1.0, 0.0, 1.0)))
+    assert np.all(np.abs(frames).sum(axis=1) == 1.0)
+
+
 # ---------------------------------------------------------------------- MuJoCo
 @pytest.mark.parametrize("index", CASES, ids=IDS)
 def test_forward_dynamics_matches_mujoco(index: int) -> None:

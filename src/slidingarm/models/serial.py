@@ -542,16 +542,30 @@ class SerialArm(ArmModel):
 
     @property
     def params(self) -> FloatArray:
-        """The kind's table: the ``(26, n)`` physical rows (:attr:`table`) and, in column 0
-        of the rows below, the addresses of the serial kind's compiled kernels (looked up,
-        and on the first arm compiled, when first asked for; never pickled)."""
+        """The kind's table: the ``(26, n)`` physical rows in joint-aligned body frames
+        (:func:`slidingarm.models._spatial.aligned` of :attr:`table`: every joint axis is its
+        body's ``+z``, what the kernels take) and, in column 0 of the rows below, the
+        addresses of the serial kind's compiled kernels (looked up, and on the first arm
+        compiled, when first asked for; never pickled)."""
         cached: FloatArray | None = getattr(self, "_kernel_table", None)
         if cached is None:
             cached = np.zeros((SK.ROWS + len(D.SERIAL_SIGNATURES), self.n))
-            cached[: SK.ROWS] = self._table
+            cached[: SK.ROWS] = self._aligned()[0]
             cached[SK.P_FN :, 0] = D.serial_addresses()
             cached.setflags(write=False)
             object.__setattr__(self, "_kernel_table", cached)
+        return cached
+
+    def _aligned(self) -> tuple[FloatArray, FloatArray]:
+        """The table in joint-aligned body frames and those frames (:func:`SK.aligned`),
+        computed once."""
+        cached: tuple[FloatArray, FloatArray] | None = getattr(self, "_aligned_table", None)
+        if cached is None:
+            table, frames = SK.aligned(self._table)
+            table.setflags(write=False)
+            frames.setflags(write=False)
+            cached = (table, frames)
+            object.__setattr__(self, "_aligned_table", cached)
         return cached
 
     @property
@@ -638,7 +652,9 @@ class SerialArm(ArmModel):
         (qa,), single = self._states(q=q)
         rot = np.empty((qa.shape[0], self.n, 3, 3))
         pos = np.empty((qa.shape[0], self.n, 3))
-        _batch_world(self._table, qa, rot, pos)
+        table, frames = self._aligned()
+        _batch_world(table, qa, rot, pos)
+        rot = rot @ np.swapaxes(frames, -1, -2)  # the aligned frames turned back, R_0i' Q_i^T
         return (pos[0], rot[0]) if single else (pos, rot)
 
     def frame_pose(self, q: ArrayLike, frame: str | None = None) -> tuple[FloatArray, FloatArray]:
