@@ -71,7 +71,7 @@ CUSTOM_RATIO = 1.5
 
 def paper_problem() -> tuple[sa.PlanarArm, sa.FTSMC, sa.PaperReference]:
     arm = sa.PlanarArm.paper()
-    return arm, sa.FTSMC(arm, alpha=2, beta=2, p=5, q=3, k=20), sa.PaperReference()
+    return arm, sa.FTSMC(arm, alpha=2, beta=2, p=5, q=3, k=20, eps_e=NR.EPS_E), sa.PaperReference()
 
 
 def run_ours() -> sa.SimResult:
