@@ -81,7 +81,8 @@ def test_readme_snippets_print_what_the_readme_shows(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     text = README.read_text(encoding="utf-8")
-    tomls = [body for lang, body in blocks(text) if lang == "toml"]
+    # the tour's scenario file (the other toml blocks are excerpts, such as a [sweep] table)
+    tomls = [body for lang, body in blocks(text) if lang == "toml" and "extends" in body]
     assert len(tomls) == 1 and 'extends = "tanh"' in tomls[0]
     (tmp_path / "my.toml").write_text(tomls[0], encoding="utf-8")
     monkeypatch.chdir(tmp_path)
