@@ -11,6 +11,7 @@ when stdout is a terminal.
 from __future__ import annotations
 
 import json
+import math
 import shlex
 import sys
 from collections.abc import Callable, Iterator
@@ -614,12 +615,13 @@ def compare(
     typer.echo(result.headline)
     typer.echo(f"{'controller':<10}{'median MSE':>12}{'95 % CI':>24}{'success':>9}  gains")
     for _, r in result.controllers.iterrows():
-        ci = (
-            f"[{r.get('median_low', float('nan')):.4g}, {r.get('median_high', float('nan')):.4g}]"
-        )
+        median = float(r.get("median_mse", float("nan")))
+        if not r["gains"] or math.isnan(median):
+            typer.echo(f"{r['controller']:<10}  no feasible gains within the limits (not tested)")
+            continue
+        ci = f"[{r['median_low']:.4g}, {r['median_high']:.4g}]"
         typer.echo(
-            f"{r['controller']:<10}{r.get('median_mse', float('nan')):>12.4g}{ci:>24}"
-            f"{r.get('success', float('nan')):>9.1%}  {r['gains']}"
+            f"{r['controller']:<10}{median:>12.4g}{ci:>24}{r['success']:>9.1%}  {r['gains']}"
         )
     typer.echo(f"report: {out / 'report.md'} ({result.runtime_s:.0f} s)")
 

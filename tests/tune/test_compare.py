@@ -137,6 +137,8 @@ def test_compare_quick_from_the_command_line(robust_file: Path, tmp_path: Path) 
     assert result.exit_code == 0, result.stderr
     assert "the paper's ranking FTSMC < TSMC < PDSMC" in result.stdout
     assert "report:" in result.stdout
+    # a controller without feasible gains is named as such, never printed as NaN
+    assert "nan" not in result.stdout.lower()
     limits = json.loads((out / "compare.json").read_text())["definition"]["limits"]
     assert limits == {"peak_torque": 400.0, "chattering": 2e5}
     bad = runner.invoke(app, ["compare", str(robust_file), "--out", str(out), "--vary", "x"])
