@@ -52,7 +52,6 @@ from slidingarm.sensors import (
     TrueVelocity,
 )
 from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
-from slidingarm.sweep import SweepResult
 
 __all__ = [
     "FTSMC",
@@ -91,7 +90,6 @@ __all__ = [
     "SlidingModeController",
     "SteppedArm",
     "SteppedPlant",
-    "SweepResult",
     "TableReference",
     "TrueVelocity",
     "__version__",
