@@ -126,6 +126,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10_000, help="draws per turn (default 10000)")
     ap.add_argument("--turns", type=int, default=1, help="turns of sweep and batch (default 1)")
+    ap.add_argument(
+        "--first-turn", type=int, default=0, help="number of the first turn (odd: batch first)"
+    )
     ap.add_argument("--chunk", type=int, default=None, help="draws per chunk (default 64)")
     ap.add_argument("--threads", type=int, default=2, help="chunks in flight (default 2)")
     args = ap.parse_args()
@@ -136,7 +139,7 @@ def main() -> None:
     try:
         slidingarm.sweep(scenario, runs=4, out=tmp / "warm", vary=VARY, figures=False)
         turns = []
-        for turn in range(args.turns):
+        for turn in range(args.first_turn, args.first_turn + args.turns):
             t = one_turn(scenario, args, tmp, turn)
             turns.append(t)
             print(
