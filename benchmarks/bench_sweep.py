@@ -1,6 +1,6 @@
 """Speed of a sweep against the batch engine alone (issue 10, point 4).
 
-Run as ``python benchmarks/bench_sweep.py [--runs N] [--chunk C] [--threads T]``.
+Run as ``python benchmarks/bench_sweep.py [--runs N] [--turns K] [--chunk C] [--threads T]``.
 
 ``N`` draws (default 10 000) of the paper's tanh scenario (3 joints, 4.5 s at 5e-4 s, 9001
 samples, PDSMC, TSMC and FTSMC on each draw: ``3 N`` closed-loop runs) with a per-link mass
@@ -15,7 +15,9 @@ error, a payload, the reaching gain and an initial-state offset drawn per run:
 
 It prints both times, arm-steps per second (runs × 9000 RK4 intervals / time) and the
 overhead ``sweep / batch - 1`` (target <= 10 %), and checks that both give the same metrics.
-A warm-up sweep of one chunk loads the compiled kernels first.
+On a shared machine whose load drifts, ``--turns K`` repeats the pair K times (new draws each
+turn, the order of the two alternating) and prints the median overhead. A warm-up sweep of
+one chunk loads the compiled kernels first.
 """
 
 from __future__ import annotations
@@ -61,25 +63,23 @@ def staged(scenario, definition):  # type: ignore[no-untyped-def]
     return stager.setup, cols
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=10_000, help="draws (default 10000)")
-    ap.add_argument("--chunk", type=int, default=None, help="draws per chunk (default 64)")
-    ap.add_argument("--threads", type=int, default=2, help="chunks in flight (default 2)")
-    args = ap.parse_args()
-    d = load_shipped("tanh").to_dict()
-    d["mismatch"]["mass_error"] = [0.0, 0.0, 0.0]
-    scenario = slidingarm.config.scenario_from_dict(d)
-    tmp = Path(tempfile.mkdtemp(prefix="bench-sweep-"))
-    try:
-        slidingarm.sweep(scenario, runs=4, out=tmp / "warm", vary=VARY, figures=False)
+def one_turn(scenario, args, tmp: Path, turn: int) -> dict[str, float]:  # type: ignore[no-untyped-def]
+    """One sweep and the same runs through simulate_batch, in an order that alternates with
+    the turn (so that a drifting machine load favours neither)."""
+    out = tmp / f"sweep-{turn}"
+    definition = definition_of(scenario, runs=args.runs, vary=VARY, seed=turn, chunk=args.chunk)
+    base, cols = staged(scenario, definition)
+    times: dict[str, float] = {}
+
+    def run_sweep() -> None:
         t0 = time.perf_counter()
         marks: list[float] = []
         result = slidingarm.sweep(
             scenario,
             runs=args.runs,
-            out=tmp / "sweep",
+            out=out,
             vary=VARY,
+            seed=turn,
             chunk=args.chunk,
             threads=args.threads,
             figures=False,
@@ -87,13 +87,14 @@ def main() -> None:
                 marks.append(time.perf_counter()) if done == total else None
             ),
         )
-        total = time.perf_counter() - t0
-        sweep_s = marks[-1] - t0  # up to the last shard
-        definition = definition_of(scenario, runs=args.runs, vary=VARY, chunk=args.chunk)
-        t1 = time.perf_counter()
-        base, cols = staged(scenario, definition)
-        stage_s = time.perf_counter() - t1
-        t2 = time.perf_counter()
+        times["total"] = time.perf_counter() - t0
+        times["sweep"] = marks[-1] - t0  # up to the last shard
+        mean = result.table[result.table["joint"] == "mean"]
+        times["_mse_sweep"] = mean["mse"].to_numpy()  # type: ignore[assignment]
+        times["failed"] = result.failed
+
+    def run_batch() -> None:
+        t0 = time.perf_counter()
         batch = slidingarm.simulate_batch(
             cols["plant"],
             cols["ctrl"],
@@ -107,31 +108,61 @@ def main() -> None:
             record="metrics",
             throw=False,
         )
-        batch_s = time.perf_counter() - t2
+        times["batch"] = time.perf_counter() - t0
+        m = batch.metrics()
+        times["_mse_batch"] = m[m["joint"] == "mean"]["mse"].to_numpy()  # type: ignore[assignment]
+
+    for step in (run_sweep, run_batch) if turn % 2 == 0 else (run_batch, run_sweep):
+        step()
+    shutil.rmtree(out, ignore_errors=True)
+    times["same"] = float(
+        np.array_equal(times.pop("_mse_sweep"), times.pop("_mse_batch"), equal_nan=True)  # type: ignore[call-overload]
+    )
+    times["steps"] = 3 * args.runs * round(base.t_final / base.dt)
+    return times
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=10_000, help="draws per turn (default 10000)")
+    ap.add_argument("--turns", type=int, default=1, help="turns of sweep and batch (default 1)")
+    ap.add_argument(
+        "--first-turn", type=int, default=0, help="number of the first turn (odd: batch first)"
+    )
+    ap.add_argument("--chunk", type=int, default=None, help="draws per chunk (default 64)")
+    ap.add_argument("--threads", type=int, default=2, help="chunks in flight (default 2)")
+    args = ap.parse_args()
+    d = load_shipped("tanh").to_dict()
+    d["mismatch"]["mass_error"] = [0.0, 0.0, 0.0]
+    scenario = slidingarm.config.scenario_from_dict(d)
+    tmp = Path(tempfile.mkdtemp(prefix="bench-sweep-"))
+    try:
+        slidingarm.sweep(scenario, runs=4, out=tmp / "warm", vary=VARY, figures=False)
+        turns = []
+        for turn in range(args.first_turn, args.first_turn + args.turns):
+            t = one_turn(scenario, args, tmp, turn)
+            turns.append(t)
+            print(
+                f"turn {turn}: {args.runs} draws × 3 controllers; sweep {t['sweep']:.2f} s "
+                f"({t['steps'] / t['sweep']:.4g} arm-steps/s; + final table and summary "
+                f"{t['total'] - t['sweep']:.2f} s), batch {t['batch']:.2f} s "
+                f"({t['steps'] / t['batch']:.4g} arm-steps/s), overhead "
+                f"{t['sweep'] / t['batch'] - 1:+.1%}, same metrics {bool(t['same'])}, failed "
+                f"runs {int(t['failed'])}",
+                flush=True,
+            )
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    mean = result.table[result.table["joint"] == "mean"]
-    ours = mean["mse"].to_numpy()
-    theirs = batch.metrics()
-    theirs = theirs[theirs["joint"] == "mean"]["mse"].to_numpy()
-    same = np.array_equal(ours, theirs, equal_nan=True)
-    runs = 3 * args.runs
-    steps = runs * round(base.t_final / base.dt)
-    print(
-        f"{args.runs} draws × 3 controllers = {runs} runs of {round(base.t_final / base.dt)} steps"
+    ratios = sorted(t["sweep"] / t["batch"] for t in turns)
+    median = (
+        ratios[len(ratios) // 2]
+        if len(ratios) % 2
+        else 0.5 * (ratios[len(ratios) // 2 - 1] + ratios[len(ratios) // 2])
     )
     print(
-        f"sweep (draw, stage, simulate, write shards)  {sweep_s:8.2f} s  {steps / sweep_s:12.4g} arm-steps/s"
+        f"overhead sweep / batch - 1, median of {len(turns)} turn(s): {median - 1:+.1%} "
+        "(target <= 10 %)"
     )
-    print(f"  + final table, summary (bootstrap)         {total - sweep_s:8.2f} s")
-    print(
-        f"batch (simulate_batch alone, one call)       {batch_s:8.2f} s  {steps / batch_s:12.4g} arm-steps/s"
-    )
-    print(f"staging the same runs alone (untimed above)  {stage_s:8.2f} s")
-    print(
-        f"overhead sweep / batch - 1                   {sweep_s / batch_s - 1:8.1%}  (target <= 10 %)"
-    )
-    print(f"same metrics as the batch: {same}; failed runs: {result.failed}")
 
 
 if __name__ == "__main__":

@@ -232,37 +232,35 @@ def run_chunk(definition: SweepDefinition, c: int) -> pd.DataFrame:
         )
         metrics = result.metrics()
         runs_info = result.runs()
-    blocks: list[pd.DataFrame] = []
-    b = 0
-    for i, values, seed, refused in draws:
-        params = columns_of(values)
-        if refused is None:
-            assert metrics is not None and runs_info is not None
-            rows = metrics.iloc[b * len(joints) : (b + len(labels)) * len(joints)]
-            block = rows.drop(columns="run").reset_index(drop=True)
-            info = runs_info.iloc[b : b + len(labels)]
-            ok = np.repeat(info["ok"].to_numpy(dtype=bool), len(joints))
-            status = np.repeat(np.asarray(info["status"], dtype=object), len(joints))
-            message = np.repeat(np.asarray(info["message"], dtype=object), len(joints))
-            b += len(labels)
-        else:
-            block = pd.DataFrame({"joint": joints * len(labels)})
-            for name in METRIC_COLUMNS:
-                block[name] = np.nan
-            ok = np.zeros(per_run, dtype=bool)
-            status = np.array(["refused"] * per_run, dtype=object)
-            message = np.array([refused] * per_run, dtype=object)
-        block.insert(0, "controller", np.repeat(labels, len(joints)))
-        block.insert(0, "run", np.int64(i))
-        for col, v in params.items():
-            block[col] = v
-        block["seed"] = np.int64(seed)
-        block["ok"] = ok
-        block["status"] = status
-        block["message"] = message
-        blocks.append(block)
-    table = pd.concat(blocks, ignore_index=True)
-    return _typed(table)
+    # the table, column by column (run-major, then controller, then joint)
+    J, L = len(joints), len(labels)
+    rows = len(draws) * per_run
+    valid = np.repeat([refused is None for _, _, _, refused in draws], per_run)
+    columns: dict[str, Any] = {
+        "run": np.repeat(np.array([i for i, _, _, _ in draws], dtype=np.int64), per_run),
+        "controller": np.tile(np.repeat(np.array(labels, dtype=object), J), len(draws)),
+        "joint": np.tile(np.array(joints, dtype=object), L * len(draws)),
+    }
+    for name in METRIC_COLUMNS:
+        col = np.full(rows, np.nan)
+        if metrics is not None:
+            col[valid] = metrics[name].to_numpy(dtype=float)
+        columns[name] = col
+    params = [columns_of(values) for _, values, _, _ in draws]
+    for key in params[0]:
+        columns[key] = np.repeat(np.array([p[key] for p in params], dtype=float), per_run)
+    columns["seed"] = np.repeat(np.array([s for _, _, s, _ in draws], dtype=np.int64), per_run)
+    ok = np.zeros(rows, dtype=bool)
+    status = np.full(rows, "refused", dtype=object)
+    message = np.repeat(np.array([r or "" for _, _, _, r in draws], dtype=object), per_run)
+    if runs_info is not None:
+        ok[valid] = np.repeat(runs_info["ok"].to_numpy(dtype=bool), J)
+        status[valid] = np.repeat(np.asarray(runs_info["status"], dtype=object), J)
+        message[valid] = np.repeat(np.asarray(runs_info["message"], dtype=object), J)
+    columns["ok"] = ok
+    columns["status"] = status
+    columns["message"] = message
+    return _typed(pd.DataFrame(columns))
 
 
 def _typed(table: pd.DataFrame) -> pd.DataFrame:
