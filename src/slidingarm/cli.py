@@ -326,15 +326,10 @@ def sweep_(
 ) -> None:
     """Monte Carlo over a scenario: every controller on the same draws, resumable."""
     from slidingarm.config import ConfigError
-    from slidingarm.study import scenarios_dir
     from slidingarm.sweep import sweep as run_sweep
     from slidingarm.sweep.summary import summary_text
 
     with _errors():
-        # the shipped sweeps (robust) by name, as run takes the shipped scenarios
-        shipped = scenarios_dir() / f"{config}.toml"
-        if not Path(config).exists() and "/" not in config and shipped.is_file():
-            config = str(shipped)
         scenario = _load(config)
         entries: dict[str, str] = {}
         for item in vary or []:
@@ -582,12 +577,7 @@ def compare(
     from slidingarm.tune.compare import compare as run_compare
 
     with _errors():
-        path = Path(config)
-        if not path.is_file() and config == "robust":
-            from slidingarm.study import scenarios_dir
-
-            path = scenarios_dir() / "robust.toml"
-        scenario = _load(str(path))
+        scenario = _load(config)
         limits = _pairs(limit, "--limit") if limit else None
         draws: dict[str, str] = {}
         for text in vary or []:

@@ -292,12 +292,20 @@ def test_dask_local_cluster_gives_the_same_table(scenario, tmp_path):
     try:
         dask = slidingarm.sweep(scenario, runs=6, out=tmp_path / "d", vary=VARY, chunk=2,
                                 executor="local:2", figures=False)  # fmt: skip
+        # a scheduler someone else started, reached by its address (--dask ADDRESS)
+        from distributed import LocalCluster
+
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                          dashboard_address=None) as cluster:  # fmt: skip
+            remote = slidingarm.sweep(scenario, runs=6, out=tmp_path / "r", vary=VARY, chunk=3,
+                                      executor=cluster.scheduler_address, figures=False)  # fmt: skip
     finally:
         if env:
             os.environ["PYTHONPATH"] = env
         else:
             del os.environ["PYTHONPATH"]
     pdt.assert_frame_equal(local.table, dask.table)
+    pdt.assert_frame_equal(local.table, remote.table)
 
 
 def test_run_chunk_is_a_pure_function(scenario):

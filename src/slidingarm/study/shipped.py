@@ -30,9 +30,10 @@ __all__ = [
 #: The study's scenarios, in the order of docs/theory.md §7 (A, B, C): what ``reproduce`` runs.
 SCENARIOS: tuple[str, ...] = ("sign", "tanh", "noise")
 
-#: Every shipped scenario, by name: the study's and those beyond it (the UR5's), in the order
-#: ``slidingarm list`` shows them.
-SHIPPED: tuple[str, ...] = (*SCENARIOS, "ur5", "ur5_sign")
+#: Every shipped scenario, by name: the study's and those beyond it (the UR5's, and
+#: ``robust``, scenario B with the ``[sweep]`` of ``slidingarm sweep`` and ``compare``), in the
+#: order ``slidingarm list`` shows them.
+SHIPPED: tuple[str, ...] = (*SCENARIOS, "ur5", "ur5_sign", "robust")
 
 #: The base file the scenarios extend (not a scenario by itself).
 BASE: str = "paper"
