@@ -365,6 +365,10 @@ def test_large_grid_lists_only_failing_points(tmp_path: Path) -> None:
     section = md_path.read_text(encoding="utf-8").split("## Gain grid")[1].split("\n## ")[0]
     assert "It holds at 48 of 60 grid points" in section
     assert "where it does not hold" in section
+    # the way to the fair comparison, by a command that names a shipped scenario
+    from slidingarm.study import SHIPPED
+
+    assert "`slidingarm compare robust --out DIR`" in section and "robust" in SHIPPED
     table_rows = [
         ln for ln in section.splitlines() if ln.startswith("| sign") or ln.startswith("| tanh")
     ]
