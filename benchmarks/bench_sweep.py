@@ -1,6 +1,7 @@
 """Speed of a sweep against the batch engine alone (issue 10, point 4).
 
-Run as ``python benchmarks/bench_sweep.py [--runs N] [--turns K] [--chunk C] [--threads T]``.
+Run as ``python benchmarks/bench_sweep.py [--runs N] [--turns K] [--chunk C] [--threads T]
+[--clock wall|cpu]``.
 
 ``N`` draws (default 10 000) of the paper's tanh scenario (3 joints, 4.5 s at 5e-4 s, 9001
 samples, PDSMC, TSMC and FTSMC on each draw: ``3 N`` closed-loop runs) with a per-link mass
@@ -16,8 +17,10 @@ error, a payload, the reaching gain and an initial-state offset drawn per run:
 It prints both times, arm-steps per second (runs × 9000 RK4 intervals / time) and the
 overhead ``sweep / batch - 1`` (target <= 10 %), and checks that both give the same metrics.
 On a shared machine whose load drifts, ``--turns K`` repeats the pair K times (new draws each
-turn, the order of the two alternating) and prints the median overhead. A warm-up sweep of
-one chunk loads the compiled kernels first.
+turn, the order of the two alternating) and prints the median overhead; ``--clock cpu`` times
+both with this process's CPU time over all its threads, which measures the sweep's own work
+beside the engine's even when a neighbour's load swings the wall time by 2x. A warm-up sweep
+of one chunk loads the compiled kernels first.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import argparse
 import shutil
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +67,11 @@ def staged(scenario, definition):  # type: ignore[no-untyped-def]
     return stager.setup, cols
 
 
+#: The clock of every timing: wall time (default) or ``--clock cpu``, this process's CPU time
+#: over all its threads (numba's and the sweep's), which a neighbour's load barely moves.
+CLOCK: list[Callable[[], float]] = [time.perf_counter]
+
+
 def one_turn(scenario, args, tmp: Path, turn: int) -> dict[str, float]:  # type: ignore[no-untyped-def]
     """One sweep and the same runs through simulate_batch, in an order that alternates with
     the turn (so that a drifting machine load favours neither)."""
@@ -72,7 +81,7 @@ def one_turn(scenario, args, tmp: Path, turn: int) -> dict[str, float]:  # type:
     times: dict[str, float] = {}
 
     def run_sweep() -> None:
-        t0 = time.perf_counter()
+        t0 = CLOCK[0]()
         marks: list[float] = []
         result = slidingarm.sweep(
             scenario,
@@ -84,17 +93,17 @@ def one_turn(scenario, args, tmp: Path, turn: int) -> dict[str, float]:  # type:
             threads=args.threads,
             figures=False,
             progress=lambda done, total: (
-                marks.append(time.perf_counter()) if done == total else None
+                marks.append(CLOCK[0]()) if done == total else None
             ),
         )
-        times["total"] = time.perf_counter() - t0
+        times["total"] = CLOCK[0]() - t0
         times["sweep"] = marks[-1] - t0  # up to the last shard
         mean = result.table[result.table["joint"] == "mean"]
         times["_mse_sweep"] = mean["mse"].to_numpy()  # type: ignore[assignment]
         times["failed"] = result.failed
 
     def run_batch() -> None:
-        t0 = time.perf_counter()
+        t0 = CLOCK[0]()
         batch = slidingarm.simulate_batch(
             cols["plant"],
             cols["ctrl"],
@@ -108,7 +117,7 @@ def one_turn(scenario, args, tmp: Path, turn: int) -> dict[str, float]:  # type:
             record="metrics",
             throw=False,
         )
-        times["batch"] = time.perf_counter() - t0
+        times["batch"] = CLOCK[0]() - t0
         m = batch.metrics()
         times["_mse_batch"] = m[m["joint"] == "mean"]["mse"].to_numpy()  # type: ignore[assignment]
 
@@ -131,7 +140,12 @@ def main() -> None:
     )
     ap.add_argument("--chunk", type=int, default=None, help="draws per chunk (default 64)")
     ap.add_argument("--threads", type=int, default=2, help="chunks in flight (default 2)")
+    ap.add_argument(
+        "--clock", choices=("wall", "cpu"), default="wall",
+        help="wall time, or this process's CPU time (steadier on a shared machine)",
+    )  # fmt: skip
     args = ap.parse_args()
+    CLOCK[0] = time.process_time if args.clock == "cpu" else time.perf_counter
     d = load_shipped("tanh").to_dict()
     d["mismatch"]["mass_error"] = [0.0, 0.0, 0.0]
     scenario = slidingarm.config.scenario_from_dict(d)
