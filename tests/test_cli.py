@@ -177,7 +177,7 @@ def test_run_missing_config(tmp_path: Path) -> None:
     code, _, err = invoke("run", "nonesuch", "--out", str(tmp_path / "o"))
     assert code == EXIT_USAGE
     line = one_line_error(err)
-    assert "nonesuch: no such file (nor the name of a shipped scenario: sign, tanh, noise, ur5, ur5_sign)" in line
+    assert "nonesuch: no such file (nor the name of a shipped scenario: sign, tanh, noise, ur5, ur5_sign, robust)" in line
     assert not (tmp_path / "o").exists()
 
 
@@ -204,7 +204,7 @@ def test_python_dash_m() -> None:
     assert done.returncode == EXIT_USAGE
     assert done.stdout == ""
     assert done.stderr.strip().splitlines() == [
-        "error: nonesuch.toml: no such file (nor the name of a shipped scenario: sign, tanh, noise, ur5, ur5_sign)"
+        "error: nonesuch.toml: no such file (nor the name of a shipped scenario: sign, tanh, noise, ur5, ur5_sign, robust)"
     ]
 
 
