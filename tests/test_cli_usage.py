@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from _scenarios import minimal_scenario
 from slidingarm import __version__
 from slidingarm.cli import EXIT_USAGE, main
 
@@ -73,26 +74,7 @@ def test_a_command_that_works_exits_0(capsys: pytest.CaptureFixture[str]) -> Non
     assert code == 0 and out.startswith("ok: ") and err == ""
 
 
-BASE = """
-switching = "tanh"
-[plant]
-preset = "paper"
-[reference]
-kind = "paper"
-[simulation]
-t_final = 0.01
-dt = 5e-4
-q0 = [0.7, 1.5, 0.5]
-[gains]
-alpha = 2.0
-beta = 2.0
-p = 5
-q = 3
-k = 20.0
-width = 0.05
-[[controllers]]
-name = "pdsmc"
-"""
+BASE = minimal_scenario(switching="tanh", t_final=0.01, controllers=("pdsmc",))
 
 
 @pytest.mark.parametrize(

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from _scenarios import minimal_scenario
 from slidingarm import FTSMC, NTSMC, PDSMC, TSMC, DirtyDerivative, PaperReference, PlanarArm
 from slidingarm.config import (
     ConfigError,
@@ -19,37 +20,7 @@ from slidingarm.config import (
 )
 from slidingarm.study import SCENARIOS, load_shipped, scenario_path, scenarios_dir
 
-MINIMAL = """
-switching = "sign"
-
-[plant]
-preset = "paper"
-
-[reference]
-kind = "paper"
-
-[simulation]
-t_final = 0.5
-dt = 5e-4
-q0 = [0.7, 1.5, 0.5]
-
-[gains]
-alpha = 2.0
-beta = 2.0
-p = 5
-q = 3
-k = 20.0
-width = 0.05
-
-[[controllers]]
-name = "pdsmc"
-
-[[controllers]]
-name = "tsmc"
-
-[[controllers]]
-name = "ftsmc"
-"""
+MINIMAL = minimal_scenario()
 
 
 def write(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
