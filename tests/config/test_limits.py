@@ -17,7 +17,6 @@ import pytest
 
 import slidingarm as sa
 import slidingarm.config.scenario as scenario_module
-from _scenarios import minimal_scenario
 from slidingarm._io import MAX_SCENARIO_BYTES
 from slidingarm._validate import MAX_POSITION, MIN_EPS_E
 from slidingarm.config import ConfigError, load_scenario
@@ -36,7 +35,37 @@ simulate_module = importlib.import_module("slidingarm.simulate")
 
 GiB = 2**30
 
-BASE = minimal_scenario(switching="tanh", t_final=0.01)
+BASE = """
+switching = "tanh"
+
+[plant]
+preset = "paper"
+
+[reference]
+kind = "paper"
+
+[simulation]
+t_final = 0.01
+dt = 5e-4
+q0 = [0.7, 1.5, 0.5]
+
+[gains]
+alpha = 2.0
+beta = 2.0
+p = 5
+q = 3
+k = 20.0
+width = 0.05
+
+[[controllers]]
+name = "pdsmc"
+
+[[controllers]]
+name = "tsmc"
+
+[[controllers]]
+name = "ftsmc"
+"""
 
 
 def scenario(tmp_path: Path, old: str = "", new: str = "", name: str = "s.toml") -> Path:
