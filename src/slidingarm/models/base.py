@@ -103,6 +103,15 @@ def _batch_potential(kind, p, g, q, out):  # type: ignore[no-untyped-def]  # pra
         out[b] = D.potential_energy(kind, p, g, q[b], work)
 
 
+def _read_only(a: FloatArray) -> FloatArray:
+    """A C-contiguous, read-only view (or copy) of ``a``: the compiled batch kernels then see one
+    array type whether the caller's array was writable or not (a result's frozen signals), so
+    each compiles once, not once per mutability (about 5 s of compile each)."""
+    out = np.ascontiguousarray(a).view()
+    out.flags.writeable = False
+    return out
+
+
 class ArmModel(ABC):
     """An immutable rigid-body arm with ``n`` joints: :math:`M(q)\\ddot q + h(q, \\dot q) = \\tau`.
 
@@ -180,7 +189,7 @@ class ArmModel(ABC):
                 f"batch sizes differ: {', '.join(f'{k} {a.shape}' for k, a in zip(named, arrays, strict=True))}"
             )
         size = batch.pop() if batch else 1
-        arrays = [np.ascontiguousarray(np.broadcast_to(a, (size, self.n))) for a in arrays]
+        arrays = [_read_only(np.broadcast_to(a, (size, self.n))) for a in arrays]
         return arrays, all(singles)
 
     @staticmethod
