@@ -13,7 +13,11 @@ from matplotlib.figure import Figure
 from slidingarm._io import atomic_write_bytes
 from slidingarm.plotting._style import PNG_DPI, RC
 
-__all__ = ["PNG_DPI", "save_figure"]
+__all__ = ["PNG_COMPRESS_LEVEL", "PNG_DPI", "save_figure"]
+
+#: zlib level of the PNG files: 1 encodes in about a third of the time of Pillow's default
+#: (6), which was a sixth of a figure's saving time, for files about 17 % larger.
+PNG_COMPRESS_LEVEL = 1
 
 
 def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
@@ -36,7 +40,13 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
     svg = stem.parent / f"{stem.name}.svg"
     with matplotlib.rc_context(RC):
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=PNG_DPI, metadata={"Software": None})
+        fig.savefig(
+            buf,
+            format="png",
+            dpi=PNG_DPI,
+            metadata={"Software": None},
+            pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL},
+        )
         png_bytes = buf.getvalue()
         buf = io.BytesIO()
         fig.savefig(buf, format="svg", metadata={"Date": None})
