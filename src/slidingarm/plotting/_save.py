@@ -20,15 +20,17 @@ __all__ = ["PNG_COMPRESS_LEVEL", "PNG_DPI", "save_figure"]
 PNG_COMPRESS_LEVEL = 1
 
 
-def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
+def save_figure(fig: Figure, stem: str | os.PathLike[str], *, clear: bool = True) -> list[Path]:
     """Write ``fig`` to ``<stem>.png`` and ``<stem>.svg``, then close it.
 
     Each file is rendered in memory and written through a temporary file and
     :func:`os.replace`, so a reader never sees a partial file and an interrupted save leaves
     none. The SVG carries no date and uses a fixed ``svg.hashsalt``, so saving the same figure
     twice gives identical bytes. ``stem`` is the path without extension (its own dots are kept:
-    ``fig.v1`` gives ``fig.v1.png``). After saving, the figure is cleared (and closed in pyplot
-    if pyplot manages it) to free its memory.
+    ``fig.v1`` gives ``fig.v1.png``). After saving, the figure is closed in pyplot if pyplot
+    manages it, and with ``clear`` (default) cleared to free its memory; ``clear=False`` leaves
+    that to the garbage collector when the caller drops the figure (clearing rebuilds every
+    axis's ticks: about a tenth of the study's figure time).
 
     Returns
     -------
@@ -55,5 +57,6 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
     atomic_write_bytes(svg, svg_bytes)
     if "matplotlib.pyplot" in sys.modules:
         sys.modules["matplotlib.pyplot"].close(fig)
-    fig.clear()
+    if clear:
+        fig.clear()
     return [png, svg]

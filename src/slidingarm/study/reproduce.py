@@ -179,8 +179,9 @@ def render_figures(
         results, title=title, only=only, tool_paths=actual, tool_reference=desired
     )
     paths: dict[str, Path] = {}
-    for fig_name, fig in figures.items():
-        written = save_figure(fig, fig_dir / figure_stem(name, fig_name))
+    for fig_name in list(figures):
+        # each figure is dropped once saved (not cleared: that would rebuild its ticks)
+        written = save_figure(figures.pop(fig_name), fig_dir / figure_stem(name, fig_name), clear=False)
         paths[fig_name] = next(p for p in written if p.suffix == ".png")
     return paths
 
