@@ -348,7 +348,8 @@ def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
 class _Ending:
     """A pool whose tasks are all done, shut down without waiting for its workers to end (it
     takes them most of a second), so that they end while the study writes its report;
-    :meth:`join` then waits for them, :meth:`stop` ends them at once (on failure)."""
+    :meth:`join` then ends those still running (idle) and waits for them, :meth:`stop` does the
+    same on failure, waiting at most 10 s for each."""
 
     def __init__(self, pool: cf.ProcessPoolExecutor) -> None:
         # the executor drops these references in shutdown(wait=False)
@@ -357,11 +358,15 @@ class _Ending:
         pool.shutdown(wait=False)
 
     def join(self) -> None:
-        """Wait for the workers to end."""
-        if self._manager is not None:
-            self._manager.join()
+        """End the workers and wait for them: every task is done and its files are written, so
+        an idle worker is stopped rather than waited for through its interpreter's shutdown."""
+        for process in self._processes:
+            if process.is_alive():
+                process.terminate()
         for process in self._processes:
             process.join()
+        if self._manager is not None:
+            self._manager.join()
 
     def stop(self) -> None:
         """End the workers now and wait for them."""
