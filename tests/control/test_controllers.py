@@ -623,6 +623,8 @@ def test_evaluate_fast_path_refuses_what_the_general_path_refuses() -> None:
         np.testing.assert_array_equal(got[1], want[1])
     with pytest.raises(ValueError, match=r"^dt > 0 \(the sample time\) is required"):
         c.evaluate(*good)
+    with pytest.raises(ValueError, match=r"^qd must be finite"):  # the inputs first
+        c.evaluate(q, np.array([0.0, math.nan, 0.0]), *good[2:])
     ints = [np.array([0, 1, 0]), *good[1:]]
     np.testing.assert_array_equal(
         make("ftsmc").evaluate(*ints)[0], make("ftsmc").evaluate(*[a.astype(float) for a in ints])[0]

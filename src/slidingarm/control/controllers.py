@@ -18,7 +18,7 @@ sat(s/ε)}, or the super-twisting one :math:`r = k_1\\mathrm{sig}(s)^{1/2} + w`,
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar, Literal, cast
+from typing import Any, ClassVar, Literal, NoReturn, cast
 
 import numpy as np
 from numba import njit
@@ -80,11 +80,12 @@ DEFAULT_WIDTH = 0.05
 _INPUT_NAMES: tuple[str, ...] = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
 #: :func:`_evaluate_checked`'s code for a call whose inputs and outputs are all finite.
 _OK = -1
-_F64 = np.dtype(np.float64)
 #: :func:`_evaluate_checked`'s code for an input of another shape than (n,).
 _BAD_SHAPE = -2
-#: :meth:`SlidingModeController._checked_call`'s code for inputs the fast path does not take.
+#: :meth:`SlidingModeController._checked_retry`'s code for inputs the fast path does not take.
 _SLOW = -3
+#: The dtype of the fast path's inputs (numpy's one float64 instance, compared by identity).
+_F64 = np.dtype(np.float64)
 #: Whether :func:`_evaluate_checked` has a signature, and so compiles no other at call time.
 _CHECKED_READY: list[bool] = []
 
@@ -577,13 +578,15 @@ class SlidingModeController(Controller):
             state whose torque overflows float64.
         """
         n = self._n
-        if self._reaching == "super-twisting":
-            if dt is None or not (math.isfinite(dt) and dt > 0):
-                raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")
+        # checked after the inputs (a call with both wrong names the input), as it always was
+        dt_bad = self._reaching == "super-twisting" and (
+            dt is None or not (math.isfinite(dt) and dt > 0)
+        )
         step = 0.0 if dt is None else float(dt)
         tau, s = np.empty(n), np.empty(n)
         if (
-            self._law != "paper"
+            not dt_bad
+            and self._law != "paper"
             and type(q) is type(qd) is type(q_ref) is type(qd_ref) is type(qdd_ref) is np.ndarray
             and q.dtype is qd.dtype is q_ref.dtype is qd_ref.dtype is qdd_ref.dtype is _F64
             and q.flags.carray
@@ -612,6 +615,8 @@ class SlidingModeController(Controller):
             if code >= len(_INPUT_NAMES):
                 self._overflow(code - len(_INPUT_NAMES), qd)
         arrays = checked_inputs(n, q=q, qd=qd, q_ref=q_ref, qd_ref=qd_ref, qdd_ref=qdd_ref)
+        if dt_bad:
+            raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")
         state = self._state.copy()  # restored if the call is rejected below
         if self._law == "paper":
             self._paper_call(*arrays, step, tau, s)
@@ -653,7 +658,7 @@ class SlidingModeController(Controller):
             return _SLOW
 
     @staticmethod
-    def _overflow(joint: int, qd: ArrayLike) -> None:
+    def _overflow(joint: int, qd: ArrayLike) -> NoReturn:
         """Refuse a state whose torque (of ``joint``, 0-based) is not finite."""
         raise ValueError(
             f"the torque of joint {joint + 1} overflows float64 at this state "
