@@ -296,6 +296,10 @@ def test_save_figure_clears_the_figure(tmp_path: Path) -> None:
     fig = plot_error(_results(1))
     save_figure(fig, tmp_path / "x")
     assert not fig.axes
+    kept = plot_error(_results(1))
+    save_figure(kept, tmp_path / "y", clear=False)
+    assert kept.axes
+    assert (tmp_path / "y.svg").read_bytes() == (tmp_path / "x.svg").read_bytes()
 
 
 def test_envelope_keeps_extremes_and_ends() -> None:

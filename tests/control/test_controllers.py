@@ -583,6 +583,54 @@ def test_evaluate_validates_its_inputs() -> None:
             c.evaluate(*args)
 
 
+def test_evaluate_fast_path_refuses_what_the_general_path_refuses() -> None:
+    """float64 C-contiguous inputs take the compiled checks (shape, finiteness inside the
+    call); every other kind of input takes the general path. Both give the same torques, bit
+    for bit, and the same messages."""
+    c = make("ftsmc", "tanh", reaching="super-twisting", k=4.0, k2=30.0)
+    ref = make("ftsmc", "tanh", reaching="super-twisting", k=4.0, k2=30.0)
+    q = np.array([0.7, 1.5, 0.5])
+    qd = np.array([0.1, -0.2, 0.3])
+    good = [q, qd, np.zeros(N), np.zeros(N), np.array([0.0, -0.5, 0.5])]
+    names = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
+    for i, name in enumerate(names):
+        for bad in (math.nan, math.inf, -math.inf):
+            args = list(good)
+            args[i] = np.array([0.0, bad, 0.0])
+            with pytest.raises(ValueError, match=rf"^{name} must be finite \(no NaN or inf\)$"):
+                c.evaluate(*args, dt=5e-4)
+        for wrong in (np.zeros(N + 1), np.zeros(N - 1), np.zeros((1, N)), np.zeros((N, 1))):
+            args = list(good)
+            args[i] = wrong
+            shape = re.escape(str(wrong.shape))
+            with pytest.raises(ValueError, match=rf"^{name} must have shape \(3,\), got {shape}$"):
+                c.evaluate(*args, dt=5e-4)
+        # other dtypes and layouts: the general path, which still refuses a NaN by name
+        for kind in (np.float32, np.int64):
+            args = list(good)
+            args[i] = np.array([0, 1, 0], dtype=kind)
+            args[(i + 1) % 5] = np.array([0.0, math.nan, 0.0])
+            with pytest.raises(ValueError, match="must be finite"):
+                c.evaluate(*args, dt=5e-4)
+    # the refusals above left the integral alone: c and ref agree, whatever the input's kind
+    strided = np.repeat(q, 2)[::2]
+    readonly = q.copy()
+    readonly.setflags(write=False)
+    for first in (q, list(q), tuple(q), strided, readonly, q.astype(">f8")):
+        got = c.evaluate(first, *good[1:], dt=5e-4)
+        want = ref.evaluate(*good, dt=5e-4)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+    with pytest.raises(ValueError, match=r"^dt > 0 \(the sample time\) is required"):
+        c.evaluate(*good)
+    with pytest.raises(ValueError, match=r"^qd must be finite"):  # the inputs first
+        c.evaluate(q, np.array([0.0, math.nan, 0.0]), *good[2:])
+    ints = [np.array([0, 1, 0]), *good[1:]]
+    np.testing.assert_array_equal(
+        make("ftsmc").evaluate(*ints)[0], make("ftsmc").evaluate(*[a.astype(float) for a in ints])[0]
+    )
+
+
 # ---------------------------------------------------------------------------- singularity
 CONTROLLERS: list[SlidingModeController] = [
     make(name, switching, law=law)

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from slidingarm.study import output as O
@@ -318,3 +319,54 @@ def test_a_dead_runs_staging_folder_is_removed_a_live_ones_kept(tmp_path: Path) 
     assert live.exists()
     assert not reused.exists() or O._start_time(mine) is None
     assert not any(p.name == LOCK for p in out.iterdir())
+
+
+# ---------------------------------------------------------------------------- the runs' CSVs
+
+
+def _repr_csv(result: Any) -> bytes:
+    """The CSV as it was written before it was formatted in bulk: ``repr`` of every float."""
+    from slidingarm.results import SIGNALS
+
+    data = np.column_stack([result.t] + [getattr(result, name) for name in SIGNALS])
+    lines = [",".join(result.columns())] + [",".join(map(repr, row)) for row in data.tolist()]
+    return ("\n".join(lines) + "\n").encode("ascii")
+
+
+def test_run_csv_reads_back_bit_identical_to_repr() -> None:
+    """csv_bytes formats in bulk; parsed, its text gives exactly the floats that ``repr`` text
+    gives (sign of zero, subnormals, every exponent), and every column still reads as floats
+    (whole numbers keep their ``.0``)."""
+    from slidingarm.results import SIGNALS, SimResult
+
+    rng = np.random.default_rng(20261202)
+    n, count = 2, 4000
+    special = np.array(
+        [0.0, -0.0, 1.0, -4.0, 0.1, 1 / 3, 1e-5, 1e-7, 123456.0, 1e15 - 1.0, 1e15, 1e16, 1e22,
+         5e-324, 2.2250738585072014e-308, 1.7976931348623157e308, -1.5e-300, 2.5, 1e21, 7e20]
+    )  # fmt: skip
+    randoms = rng.standard_normal(count) * 10.0 ** rng.integers(-30, 30, count)
+    values = np.concatenate([special, randoms, np.round(randoms[:100])])
+    T = values.size
+    signals = {
+        name: np.column_stack([np.roll(values, 7 * i + j) for j in range(n)])
+        for i, name in enumerate(SIGNALS)
+    }
+    signals["tau"][:, 1] = np.linspace(-3.0, 3.0, T)  # a column without a whole number ...
+    signals["s"][:, 0] = np.round(signals["s"][:, 0] * 0.0)  # ... and one of zeros only
+    result = SimResult(t=np.arange(T) * 5e-4, **signals, params={"case": "csv"}, seed=1)
+    new, old = O.csv_bytes(result), _repr_csv(result)
+    assert new.splitlines()[0] == old.splitlines()[0]
+    parse = lambda b: np.array(  # noqa: E731
+        [[float(x) for x in line.split(b",")] for line in b.splitlines()[1:]]
+    )
+    got, want = parse(new), parse(old)
+    np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+    np.testing.assert_array_equal(want.view(np.int64), result.to_dataframe().to_numpy().view(np.int64))
+    import io
+
+    import pandas as pd
+
+    frame = pd.read_csv(io.BytesIO(new))
+    assert (frame.dtypes == np.float64).all(), frame.dtypes[frame.dtypes != np.float64]
+    assert frame.shape == (T, 1 + len(SIGNALS) * n)

@@ -18,9 +18,10 @@ sat(s/ε)}, or the super-twisting one :math:`r = k_1\\mathrm{sig}(s)^{1/2} + w`,
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar, Literal, cast
+from typing import Any, ClassVar, Literal, NoReturn, cast
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm._validate import ParameterTypeError
@@ -73,6 +74,113 @@ _REACHING: dict[str, int] = {"classic": CK.REACH_CLASSIC, "super-twisting": CK.R
 #: Boundary-layer width used by ``tanh``/``sat`` when none is given, in the unit of ``s``
 #: (rad/s; rad for :class:`NTSMC`).
 DEFAULT_WIDTH = 0.05
+
+
+#: The inputs of :meth:`SlidingModeController.evaluate`, in order (their names in messages).
+_INPUT_NAMES: tuple[str, ...] = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
+#: :func:`_evaluate_checked`'s code for a call whose inputs and outputs are all finite.
+_OK = -1
+#: :func:`_evaluate_checked`'s code for an input of another shape than (n,).
+_BAD_SHAPE = -2
+#: :meth:`SlidingModeController._checked_retry`'s code for inputs the fast path does not take.
+_SLOW = -3
+#: The dtype of the fast path's inputs (numpy's one float64 instance, compared by identity).
+_F64 = np.dtype(np.float64)
+#: Whether :func:`_evaluate_checked` has a signature, and so compiles no other at call time.
+_CHECKED_READY: list[bool] = []
+
+
+def _add_checked_signature(c: SlidingModeController) -> bool:
+    """Compile :func:`_evaluate_checked` for controller ``c``'s own arrays and float64
+    C-contiguous writable inputs, if not yet done; then no other signature is compiled at call
+    time, so that an input of another type raises ``TypeError`` (the general path) rather
+    than compiling a specialisation for it. Returns whether a signature was added."""
+    from numba import typeof, types
+
+    vec = types.float64[::1]
+    sig = (
+        typeof(c._p), types.int64, typeof(c._mparams), types.float64, vec, vec, vec, vec, vec,
+        typeof(c._state), types.float64, vec, vec, typeof(c._scratch), typeof(c._saved),
+    )  # fmt: skip
+    if any(tuple(known) == sig for known in _evaluate_checked.signatures):
+        return False
+    _evaluate_checked.disable_compile(False)
+    try:
+        _evaluate_checked.compile(sig)
+    finally:
+        _evaluate_checked.disable_compile(True)
+    if not _CHECKED_READY:
+        _CHECKED_READY.append(True)
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _first_nonfinite(a: np.ndarray) -> int:
+    """Index of the first element of ``a`` (n,) that is NaN or infinite; -1 if none."""
+    for j in range(a.shape[0]):
+        if not math.isfinite(a[j]):
+            return j
+    return -1
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _evaluate_checked(
+    p: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    scratch: np.ndarray,
+    saved: np.ndarray,
+) -> int:
+    """:func:`slidingarm.control._dispatch.control_once` with the checks of a validated call.
+
+    Returns :data:`_OK` (-1) when every input and output is finite; ``i`` in 0..4 when input
+    ``i`` (in :data:`_INPUT_NAMES` order) holds a NaN or an infinity, before anything is
+    computed; ``5 + j`` when the torque or ``s`` of joint ``j`` is not finite, with the
+    super-twisting integral ``st_state`` restored to its value before the call (kept in
+    ``saved``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs' length ``n``.
+    """
+    n = tau_out.shape[0]
+    if (
+        q.shape[0] != n
+        or qd.shape[0] != n
+        or q_ref.shape[0] != n
+        or qd_ref.shape[0] != n
+        or qdd_ref.shape[0] != n
+        or s_out.shape[0] != n
+    ):
+        return _BAD_SHAPE
+    if _first_nonfinite(q) >= 0:
+        return 0
+    if _first_nonfinite(qd) >= 0:
+        return 1
+    if _first_nonfinite(q_ref) >= 0:
+        return 2
+    if _first_nonfinite(qd_ref) >= 0:
+        return 3
+    if _first_nonfinite(qdd_ref) >= 0:
+        return 4
+    for j in range(n):
+        saved[j] = st_state[j]
+    LD.control_once(
+        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out,
+        scratch,
+    )  # fmt: skip
+    for j in range(n):
+        if not (math.isfinite(tau_out[j]) and math.isfinite(s_out[j])):
+            for i in range(n):
+                st_state[i] = saved[i]
+            return 5 + j
+    return _OK
 
 
 class SlidingModeController(Controller):
@@ -215,6 +323,7 @@ class SlidingModeController(Controller):
         self._scratch = np.empty((CK.CONTROL_WORK_ROWS + 2 * n, n))
         self._state = np.zeros(n)
         self._s = np.empty(n)
+        self._saved = np.empty(n)  # the integral before a validated call, restored on refusal
         self._n = n
         mh = model.handle
         self._mkind = mh.kind
@@ -468,13 +577,46 @@ class SlidingModeController(Controller):
             On a wrong shape, a non-finite input, a missing ``dt`` for a stateful law, or a
             state whose torque overflows float64.
         """
-        n = self.n
-        arrays = checked_inputs(n, q=q, qd=qd, q_ref=q_ref, qd_ref=qd_ref, qdd_ref=qdd_ref)
-        if self.stateful:
-            if dt is None or not (math.isfinite(dt) and dt > 0):
-                raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")
+        n = self._n
+        # checked after the inputs (a call with both wrong names the input), as it always was
+        dt_bad = self._reaching == "super-twisting" and (
+            dt is None or not (math.isfinite(dt) and dt > 0)
+        )
         step = 0.0 if dt is None else float(dt)
         tau, s = np.empty(n), np.empty(n)
+        if (
+            not dt_bad
+            and self._law != "paper"
+            and type(q) is type(qd) is type(q_ref) is type(qd_ref) is type(qdd_ref) is np.ndarray
+            and q.dtype is qd.dtype is q_ref.dtype is qd_ref.dtype is qdd_ref.dtype is _F64
+            and q.flags.carray
+            and qd.flags.carray
+            and q_ref.flags.carray
+            and qd_ref.flags.carray
+            and qdd_ref.flags.carray
+        ):
+            # the fast path, for inputs already of the kernel's type (float64 arrays,
+            # C-contiguous, aligned and writable; O(1) checks here): the dimensions are the
+            # dispatcher's to check (it compiles no other signature, so another raises
+            # TypeError), the shape and finiteness of the inputs and outputs the compiled call's
+            try:
+                if not _CHECKED_READY:
+                    raise TypeError
+                code = _evaluate_checked(
+                    self._p, self._mkind, self._mparams, self._g, q, qd, q_ref, qd_ref,
+                    qdd_ref, self._state, step, tau, s, self._scratch, self._saved,
+                )  # fmt: skip
+            except TypeError:
+                code = self._checked_retry(q, qd, q_ref, qd_ref, qdd_ref, step, tau, s)
+            if code == _OK:
+                return tau, s
+            if 0 <= code < len(_INPUT_NAMES):
+                raise ValueError(f"{_INPUT_NAMES[code]} must be finite (no NaN or inf)")
+            if code >= len(_INPUT_NAMES):
+                self._overflow(code - len(_INPUT_NAMES), qd)
+        arrays = checked_inputs(n, q=q, qd=qd, q_ref=q_ref, qd_ref=qd_ref, qdd_ref=qdd_ref)
+        if dt_bad:
+            raise ValueError("dt > 0 (the sample time) is required by the super-twisting law")
         state = self._state.copy()  # restored if the call is rejected below
         if self._law == "paper":
             self._paper_call(*arrays, step, tau, s)
@@ -494,11 +636,35 @@ class SlidingModeController(Controller):
         bad = np.flatnonzero(~(np.isfinite(tau) & np.isfinite(s)))
         if bad.size:
             self._state[:] = state
-            raise ValueError(
-                f"the torque of joint {bad[0] + 1} overflows float64 at this state "
-                f"(|qd| up to {np.max(np.abs(arrays[1])):.3g} rad/s): the state is out of range"
-            )
+            self._overflow(int(bad[0]), arrays[1])
         return tau, s
+
+    def _checked_retry(self, *args: Any) -> int:
+        """:func:`_evaluate_checked` refused the call's types (``args``: the five inputs,
+        ``dt``, ``tau``, ``s``): if this controller's own arrays were the reason (a signature
+        not yet compiled, :func:`_add_checked_signature`), compile it and call again;
+        :data:`_SLOW` if the inputs are not of the kernel's type (the general path)."""
+        if not _add_checked_signature(self):
+            return _SLOW
+        q, qd, q_ref, qd_ref, qdd_ref, step, tau, s = args
+        try:
+            return int(
+                _evaluate_checked(
+                    self._p, self._mkind, self._mparams, self._g, q, qd, q_ref, qd_ref,
+                    qdd_ref, self._state, step, tau, s, self._scratch, self._saved,
+                )
+            )  # fmt: skip
+        except TypeError:
+            return _SLOW
+
+    @staticmethod
+    def _overflow(joint: int, qd: ArrayLike) -> NoReturn:
+        """Refuse a state whose torque (of ``joint``, 0-based) is not finite."""
+        raise ValueError(
+            f"the torque of joint {joint + 1} overflows float64 at this state "
+            f"(|qd| up to {np.max(np.abs(np.asarray(qd, dtype=np.float64))):.3g} rad/s): "
+            "the state is out of range"
+        )
 
     def sliding_variable(
         self, q: ArrayLike, qd: ArrayLike, q_ref: ArrayLike, qd_ref: ArrayLike

@@ -13,18 +13,24 @@ from matplotlib.figure import Figure
 from slidingarm._io import atomic_write_bytes
 from slidingarm.plotting._style import PNG_DPI, RC
 
-__all__ = ["PNG_DPI", "save_figure"]
+__all__ = ["PNG_COMPRESS_LEVEL", "PNG_DPI", "save_figure"]
+
+#: zlib level of the PNG files: 1 encodes in about a third of the time of Pillow's default
+#: (6), which was a sixth of a figure's saving time, for files about 17 % larger.
+PNG_COMPRESS_LEVEL = 1
 
 
-def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
+def save_figure(fig: Figure, stem: str | os.PathLike[str], *, clear: bool = True) -> list[Path]:
     """Write ``fig`` to ``<stem>.png`` and ``<stem>.svg``, then close it.
 
     Each file is rendered in memory and written through a temporary file and
     :func:`os.replace`, so a reader never sees a partial file and an interrupted save leaves
     none. The SVG carries no date and uses a fixed ``svg.hashsalt``, so saving the same figure
     twice gives identical bytes. ``stem`` is the path without extension (its own dots are kept:
-    ``fig.v1`` gives ``fig.v1.png``). After saving, the figure is cleared (and closed in pyplot
-    if pyplot manages it) to free its memory.
+    ``fig.v1`` gives ``fig.v1.png``). After saving, the figure is closed in pyplot if pyplot
+    manages it, and with ``clear`` (default) cleared to free its memory; ``clear=False`` leaves
+    that to the garbage collector when the caller drops the figure (clearing rebuilds every
+    axis's ticks: about a tenth of the study's figure time).
 
     Returns
     -------
@@ -36,7 +42,13 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
     svg = stem.parent / f"{stem.name}.svg"
     with matplotlib.rc_context(RC):
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=PNG_DPI, metadata={"Software": None})
+        fig.savefig(
+            buf,
+            format="png",
+            dpi=PNG_DPI,
+            metadata={"Software": None},
+            pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL},
+        )
         png_bytes = buf.getvalue()
         buf = io.BytesIO()
         fig.savefig(buf, format="svg", metadata={"Date": None})
@@ -45,5 +57,6 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str]) -> list[Path]:
     atomic_write_bytes(svg, svg_bytes)
     if "matplotlib.pyplot" in sys.modules:
         sys.modules["matplotlib.pyplot"].close(fig)
-    fig.clear()
+    if clear:
+        fig.clear()
     return [png, svg]

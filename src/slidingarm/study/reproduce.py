@@ -29,7 +29,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -179,8 +179,9 @@ def render_figures(
         results, title=title, only=only, tool_paths=actual, tool_reference=desired
     )
     paths: dict[str, Path] = {}
-    for fig_name, fig in figures.items():
-        written = save_figure(fig, fig_dir / figure_stem(name, fig_name))
+    for fig_name in list(figures):
+        # each figure is dropped once saved (not cleared: that would rebuild its ticks)
+        written = save_figure(figures.pop(fig_name), fig_dir / figure_stem(name, fig_name), clear=False)
         paths[fig_name] = next(p for p in written if p.suffix == ".png")
     return paths
 
@@ -265,8 +266,34 @@ def _config_text(scenario: Scenario) -> str:
 
 
 def _warm_up() -> None:
-    """Import the plotting stack in a worker process ahead of its first figure."""
-    import slidingarm.plotting  # noqa: F401
+    """Make a worker process ready for its first figure while the main process compiles and
+    simulates: import the plotting stack and draw and save a small figure (in memory), which
+    loads the fonts and fills matplotlib's caches."""
+    import io
+
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    from slidingarm.plotting._style import PNG_DPI, RC
+
+    with matplotlib.rc_context(RC):
+        fig = Figure(figsize=(2.0, 1.5))
+        ax = fig.subplots()
+        ax.plot([0.0, 1.0], [0.0, 1.0], label="q\u0303\u2081 (rad)")
+        ax.set_yscale("symlog", linthresh=1e-3)
+        ax.set_title("warm-up — τ")
+        ax.legend()
+        fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
+        fig.savefig(io.BytesIO(), format="svg")
+
+
+def _compile_paper_law() -> None:
+    """Compile the paper's law (the errata's, reached through a pointer) into numba's cache
+    in a worker process, on the other core while the main process compiles the loop; the
+    main process then loads it from the cache. Nothing to do if it is cached already."""
+    from slidingarm.control import _dispatch as LD
+
+    LD.paper_pointer()
 
 
 #: ``prctl`` option asking Linux to send a signal to this process when its parent dies.
@@ -316,6 +343,40 @@ def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
     for process in processes:
         process.join(timeout=10)
     pool.shutdown(wait=True)
+
+
+class _Ending:
+    """A pool whose tasks are all done, shut down without waiting for its workers to end (it
+    takes them most of a second), so that they end while the study writes its report;
+    :meth:`join` then ends those still running (idle) and waits for them, :meth:`stop` does the
+    same on failure, waiting at most 10 s for each."""
+
+    def __init__(self, pool: cf.ProcessPoolExecutor) -> None:
+        # the executor drops these references in shutdown(wait=False)
+        self._manager: threading.Thread | None = getattr(pool, "_executor_manager_thread", None)
+        self._processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False)
+
+    def join(self) -> None:
+        """End the workers and wait for them: every task is done and its files are written, so
+        an idle worker is stopped rather than waited for through its interpreter's shutdown."""
+        for process in self._processes:
+            if process.is_alive():
+                process.terminate()
+        for process in self._processes:
+            process.join()
+        if self._manager is not None:
+            self._manager.join()
+
+    def stop(self) -> None:
+        """End the workers now and wait for them."""
+        for process in self._processes:
+            if process.is_alive():
+                process.terminate()
+        for process in self._processes:
+            process.join(timeout=10)
+        if self._manager is not None:
+            self._manager.join(timeout=10)
 
 
 class _Termination:
@@ -401,6 +462,19 @@ def _figure_names(tool: bool = False) -> tuple[str, ...]:
     from slidingarm.plotting import FIGURES, TOOL_FIGURES
 
     return FIGURES + (TOOL_FIGURES if tool else ())
+
+
+#: Relative cost of drawing and saving each figure (measured on the paper's scenarios): the
+#: figure workers take the dearest first.
+_FIGURE_COST: dict[str, float] = {
+    "sliding": 5.0,
+    "torque": 4.0,
+    "velocity": 2.5,
+    "tracking_all": 2.0,
+    "error": 2.0,
+    "steady_state": 2.0,
+    "tracking_joint1": 1.0,
+}
 
 
 def _default_jobs() -> int:
@@ -569,14 +643,16 @@ def _reproduce(
         overwrite=overwrite,
     )
     pool: cf.ProcessPoolExecutor | None = None
+    ending: _Ending | None = None
+    paper_law: cf.Future[None] | None = None
     try:
         for name, scenario in scenarios.items():
             staging.write_text(f"config/{name}.toml", _config_text(scenario))
         staging.check()
-        setups = {name: s.build() for name, s in scenarios.items()}
         # figures are drawn in worker processes while this one computes; the workers start
-        # (and import matplotlib) while the scenarios are simulated
-        workers = min(jobs, len(setups)) if jobs > 1 else 0
+        # at once, and while this process compiles the loop and simulates, they import
+        # matplotlib, draw a first figure and compile the errata's law (all on the other core)
+        workers = min(jobs, len(scenarios)) if jobs > 1 else 0
         if workers:
             with _starting_workers():
                 pool = cf.ProcessPoolExecutor(
@@ -585,8 +661,10 @@ def _reproduce(
                     initializer=_watch_parent,
                     initargs=(os.getpid(),),
                 )
+                paper_law = pool.submit(_compile_paper_law)
                 for _ in range(workers):
                     pool.submit(_warm_up)
+        setups = {name: s.build() for name, s in scenarios.items()}
         figures = _figure_names()
 
         n_runs = sum(len(s.controllers) for s in setups.values())
@@ -603,16 +681,25 @@ def _reproduce(
         fig_dir.mkdir(parents=True, exist_ok=True)
         # one task per figure, so that the workers stay busy to the end (per scenario, the
         # last scenario's figures were drawn by one worker while the others idled)
-        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {}
+        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {name: [] for name in setups}
         if pool is not None:
             with _starting_workers():
-                for name, setup in setups.items():
-                    futures[name] = [
+                # the dearest figures first, so that the workers finish together
+                for name, figure in sorted(
+                    ((name, figure) for name in setups for figure in figures),
+                    key=lambda item: _FIGURE_COST.get(item[1], 1.0),
+                    reverse=True,
+                ):
+                    futures[name].append(
                         pool.submit(
-                            render_figures, name, results[name], _title(setup), fig_dir, (figure,)
+                            render_figures,
+                            name,
+                            results[name],
+                            _title(setups[name]),
+                            fig_dir,
+                            (figure,),
                         )
-                        for figure in figures
-                    ]
+                    )
 
         for name in setups:
             _stage_runs(staging, name, results[name], steps)
@@ -625,6 +712,9 @@ def _reproduce(
         chattering = A.chattering_table(metrics)
         steps("convergence and chattering")
         steps.start("errata")
+        if paper_law is not None:
+            with suppress(Exception):  # if the worker could not compile it, this process does
+                paper_law.result()
         errata = A.errata_table(scenarios[ERRATA_SCENARIO])
         steps("errata")
         grids = []
@@ -652,16 +742,17 @@ def _reproduce(
 
         figure_paths: dict[str, dict[str, Path]] = {}
         for name, setup in setups.items():
-            if name in futures:
-                steps.start(f"{name}: figures")
-                paths = {k: p for future in futures[name] for k, p in future.result().items()}
+            steps.start(f"{name}: figures")
+            if pool is not None:
+                drawn = {k: p for future in futures[name] for k, p in future.result().items()}
+                paths = {k: drawn[k] for k in figures}  # in report order
             else:
-                steps.start(f"{name}: figures")
                 paths = render_figures(name, results[name], _title(setup), fig_dir)
             figure_paths[name] = {k: p.relative_to(staging.path) for k, p in paths.items()}
             steps(f"{name}: figures", len(figures))
         if pool is not None:
-            pool.shutdown()
+            # every task is done: the workers end while the report is written (joined below)
+            ending = _Ending(pool)
             pool = None
 
         from slidingarm.study.paper_report import ReportContext, write_report
@@ -700,10 +791,15 @@ def _reproduce(
         )
         files = staging.files()
         staging.publish()
+        if ending is not None:
+            ending.join()
+            ending = None
         steps("done")
     except BaseException:
         if pool is not None:
             _stop_workers(pool)
+        if ending is not None:
+            ending.stop()
         staging.discard()
         raise
     return StudyOutput(

@@ -1,0 +1,151 @@
+"""Time of ``slidingarm reproduce`` from a cold and a warm numba cache, and where it goes
+(issue 12, point 4: under 10 s from a cold cache).
+
+Run as ``python benchmarks/bench_reproduce.py [--runs 3] [--warm-only | --cold-only]``. Each run
+is a fresh process, ``python -m slidingarm reproduce --out <tmp>``, with its own
+``NUMBA_CACHE_DIR``: empty for a cold run, filled by the previous cold run for a warm one (so
+the package's own cache folders are neither used nor touched). For each run it prints the
+wall time, the CPU time of the main process and of its children (the figure workers), and the
+machine's load average; then the median of the wall times of each kind.
+
+With ``--phases`` one more run (cold) goes through :func:`slidingarm.study.reproduce` in this
+benchmark's own child process and prints the wall and CPU time of each step (the progress
+callback's) and the compile time of each numba dispatcher (numba's ``numba:compile`` events,
+CPU seconds, nested compilations included in their caller's).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+_PHASES = r"""
+import collections, json, os, sys, time
+from numba.core import event
+
+compile_cpu = collections.defaultdict(float)
+starts = {}
+
+
+class Listener(event.Listener):
+    def on_start(self, e):
+        starts[id(e.data["dispatcher"])] = time.process_time()
+
+    def on_end(self, e):
+        d = e.data["dispatcher"]
+        compile_cpu[d.py_func.__qualname__] += time.process_time() - starts.pop(id(d))
+
+
+def main():
+    event.register("numba:compile", Listener())
+    t0, c0 = time.perf_counter(), time.process_time()
+    from slidingarm.study import reproduce
+
+    marks = [("import slidingarm.study", time.perf_counter() - t0, time.process_time() - c0)]
+
+    def progress(what, done, total):
+        marks.append((what, time.perf_counter() - t0, time.process_time() - c0))
+
+    reproduce(sys.argv[1], progress=progress)
+    times = os.times()
+    print(json.dumps({"marks": marks, "compile": compile_cpu,
+                      "children": times.children_user + times.children_system}))
+
+
+if __name__ == "__main__":
+    main()
+"""
+
+
+def one_run(cache: str, out: Path) -> dict[str, float]:
+    """``python -m slidingarm reproduce`` in a fresh process; wall, CPU (self, children)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+    shutil.rmtree(out, ignore_errors=True)
+    load = os.getloadavg()[0]
+    before = os.times()
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-m", "slidingarm", "reproduce", "--out", str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    wall = time.perf_counter() - t0
+    after = os.times()
+    if proc.returncode != 0:
+        raise SystemExit(f"reproduce failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
+    cpu = (after.children_user - before.children_user) + (
+        after.children_system - before.children_system
+    )
+    return {"wall": wall, "cpu": cpu, "load": load}
+
+
+def phases(cache: str, out: Path) -> None:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as fh:
+        fh.write(_PHASES)
+        script = fh.name
+    try:
+        proc = subprocess.run(
+            [sys.executable, script, str(out)], env=env, capture_output=True, text=True
+        )
+    finally:
+        os.unlink(script)
+    if proc.returncode != 0:
+        raise SystemExit(f"the phase run failed:\n{proc.stderr[-3000:]}")
+    body = json.loads(proc.stdout.strip().splitlines()[-1])
+    print("\nphases of a cold run (wall s since start, CPU s of the main process in the step):")
+    prev_wall, prev_cpu = 0.0, 0.0
+    for what, wall, cpu in body["marks"]:
+        if wall - prev_wall >= 0.05 or cpu - prev_cpu >= 0.05:
+            print(f"  {wall:7.2f}  +{wall - prev_wall:5.2f} wall  +{cpu - prev_cpu:5.2f} cpu  {what}")
+        prev_wall, prev_cpu = wall, cpu
+    print(f"  main process CPU {prev_cpu:.2f} s; figure workers (children) {body['children']:.2f} s")
+    print("numba compile CPU by dispatcher (s):")
+    for name, sec in sorted(body["compile"].items(), key=lambda kv: -kv[1]):
+        print(f"  {sec:6.2f}  {name}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=3, help="runs of each kind (default 3)")
+    kind = parser.add_mutually_exclusive_group()
+    kind.add_argument("--cold-only", action="store_true")
+    kind.add_argument("--warm-only", action="store_true")
+    parser.add_argument("--phases", action="store_true", help="also the per-step timing")
+    args = parser.parse_args()
+    root = Path(tempfile.mkdtemp(prefix="bench-reproduce-"))
+    rows: dict[str, list[dict[str, float]]] = {"cold": [], "warm": []}
+    try:
+        for i in range(args.runs):
+            cache = str(root / f"cache{i}")
+            cold = one_run(cache, root / "out")  # fills the cache (also for --warm-only)
+            if not args.warm_only:
+                rows["cold"].append(cold)
+            if not args.cold_only:
+                rows["warm"].append(one_run(cache, root / "out"))
+        print(f"{'run':6s} {'wall s':>8s} {'cpu s':>8s} {'load':>6s}")
+        for name, runs in rows.items():
+            for r in runs:
+                print(f"{name:6s} {r['wall']:8.2f} {r['cpu']:8.2f} {r['load']:6.2f}")
+        for name, runs in rows.items():
+            if runs:
+                wall = statistics.median(r["wall"] for r in runs)
+                cpu = statistics.median(r["cpu"] for r in runs)
+                print(f"median {name}: {wall:.2f} s wall, {cpu:.2f} s CPU over {len(runs)} runs")
+        if args.phases:
+            phases(str(root / "phase-cache"), root / "phase-out")
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
