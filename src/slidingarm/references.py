@@ -430,6 +430,39 @@ class QuinticReference(Reference):
 # sinusoid
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _phase_into(t: FloatArray, omega: FloatArray, phase: FloatArray, out: FloatArray) -> None:
+    """``out[k, j] = t[k] omega[j] + phase[j]`` (T, n): a product, then a sum."""
+    for k in range(t.shape[0]):
+        tk = t[k]
+        for j in range(out.shape[1]):
+            out[k, j] = tk * omega[j] + phase[j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sine_into(
+    offset: FloatArray,
+    amplitude: FloatArray,
+    omega: FloatArray,
+    s: FloatArray,
+    c: FloatArray,
+    qdd: FloatArray,
+) -> None:
+    """:class:`SineReference` from the sines ``s`` and cosines ``c`` of the phase (T, n), in
+    place: ``s`` becomes :math:`o + A s`, ``c`` becomes :math:`(A \\omega) c`, and ``qdd``
+    receives :math:`((-A)\\omega\\omega) s`, each in the order (and rounding) of those
+    products; no fused multiply-add."""
+    n = s.shape[1]
+    for k in range(s.shape[0]):
+        for j in range(n):
+            a = amplitude[j]
+            w = omega[j]
+            sk = s[k, j]
+            qdd[k, j] = -a * w * w * sk
+            s[k, j] = offset[j] + a * sk
+            c[k, j] = a * w * c[k, j]
+
+
 class SineReference(Reference):
     """A sinusoid per joint.
 
@@ -492,12 +525,15 @@ class SineReference(Reference):
         return self._phase
 
     def _evaluate(self, t: FloatArray) -> Trajectory:
-        arg = t[:, None] * self._omega + self._phase
-        s = np.sin(arg)
+        arg = np.empty((t.shape[0], self.n))
+        _phase_into(t, self._omega, self._phase, arg)
+        # the sines and cosines by numpy (whose last bit may differ from the C library's
+        # sin and cos), in place; then the products in one compiled pass
         c = np.cos(arg)
-        a = self._amplitude
-        w = self._omega
-        return self._offset + a * s, a * w * c, -a * w * w * s
+        s = np.sin(arg, out=arg)
+        qdd = np.empty_like(s)
+        _sine_into(self._offset, self._amplitude, self._omega, s, c, qdd)
+        return s, c, qdd
 
     def to_dict(self) -> dict[str, Any]:
         return {
