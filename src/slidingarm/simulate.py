@@ -606,8 +606,13 @@ def simulate_batch(
     # parameters chosen from the control period (an automatic eps_e) are fixed now
     ctrls = [c.for_period(float(dt)) for c in ctrls]
     qr, qdr, qddr = (np.ascontiguousarray(a, dtype=np.float64) for a in reference.evaluate(t))
-    # Reference.evaluate (unless a subclass replaced it) has checked every value already
-    checked = isinstance(reference, Reference) and type(reference).evaluate is Reference.evaluate
+    # Reference.evaluate (unless a subclass replaced it or its check) has checked every value
+    kind = type(reference)
+    checked = (
+        isinstance(reference, Reference)
+        and kind.evaluate is Reference.evaluate
+        and kind._checked is Reference._checked
+    )
     for name, a in (("q", qr), ("qd", qdr), ("qdd", qddr)):
         if a.shape != (nt, n) or not (checked or np.isfinite(a).all()):
             raise ValueError(
