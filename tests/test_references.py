@@ -308,6 +308,46 @@ def test_quintic_properties(
     np.testing.assert_array_equal(qdd[-2:], 0.0)
 
 
+def _quintic_scalar(ref: QuinticReference, tk: float) -> tuple[list[float], ...]:
+    """The class docstring's formula at one time, in plain Python floats, joint by joint."""
+    d = ref.duration
+    s = 1.0 if tk >= ref.t_end else min(max((tk - ref.t_start) / d, 0.0), 1.0)
+    p = min(max(s**3 * (10.0 + s * (-15.0 + 6.0 * s)), 0.0), 1.0)
+    rows: tuple[list[float], ...] = ([], [], [])
+    for a, b in zip(ref.q_start.tolist(), ref.q_end.tolist(), strict=True):
+        rows[0].append((1.0 - p) * a + p * b)
+        rows[1].append((b - a) * (30.0 * s * s * (1.0 - s) * (1.0 - s) / d))
+        rows[2].append((b - a) * (60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / (d * d)))
+    return rows
+
+
+def test_quintic_grid_pass_matches_the_scalar_formula() -> None:
+    """The compiled one-pass evaluation on a whole grid against the formula sample by sample:
+    velocity and acceleration exactly; the position to the rounding of ``p``, whose ``s**3``
+    numpy may round one ulp away from Python's ``pow`` (so at most ``2 eps (|q_0| + |q_1|)``),
+    and exactly outside the move and at its ends."""
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        n = int(rng.integers(1, 8))
+        q0 = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 2)
+        q1 = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 2)
+        ref = QuinticReference(q0, q1, duration=10.0 ** rng.uniform(-3, 2), t_start=rng.normal())
+        d, t0 = ref.duration, ref.t_start
+        t = np.r_[rng.uniform(t0 - d, t0 + 2 * d, 300), np.linspace(t0, ref.t_end, 101)]
+        q, qd, qdd = ref.evaluate(t)
+        rows = [_quintic_scalar(ref, float(tk)) for tk in t]
+        want_q, want_qd, want_qdd = (np.array([r[i] for r in rows]) for i in range(3))
+        np.testing.assert_array_equal(qd, want_qd)
+        np.testing.assert_array_equal(qdd, want_qdd)
+        assert np.all(np.abs(q - want_q) <= 2 * EPS * (np.abs(q0) + np.abs(q1)))
+        ends = (t <= t0) | (t >= ref.t_end)
+        np.testing.assert_array_equal(q[ends], want_q[ends])
+        # and bit for bit the numpy broadcast of the formula (earlier versions' trajectory)
+        s = np.where(t >= ref.t_end, 1.0, np.clip((t - t0) / d, 0.0, 1.0))[:, None]
+        p = np.clip(s**3 * (10.0 + s * (-15.0 + 6.0 * s)), 0.0, 1.0)
+        np.testing.assert_array_equal(q, (1.0 - p) * q0 + p * q1)
+
+
 def test_quintic_parameters_are_read_only() -> None:
     ref = QuinticReference([0.0, 1.0], [1.0, 2.0], duration=1.0)
     assert ref.n == 2
@@ -367,6 +407,32 @@ def test_sine_formula_and_derivatives() -> None:
     np.testing.assert_allclose(qdd, fd1(vel(ref), t, 1e-4), rtol=0, atol=2e-10)
     assert ref.frequency.tolist() == [0.5, 2.0]
     assert ref.phase.tolist() == [0.3, 0.3]
+
+
+def test_sine_grid_pass_matches_the_formula() -> None:
+    """The compiled passes on a whole grid equal, bit for bit, the numpy broadcast of the
+    formula (the same sines and cosines, the same products in the same order), and the
+    scalar formula with the C library's sine and cosine to the rounding of those (a few ulps
+    of ``A``, ``A ω``, ``A ω²``)."""
+    rng = np.random.default_rng(10)
+    for _ in range(20):
+        n = int(rng.integers(1, 8))
+        o, a, ph = rng.normal(size=n), 3 * rng.normal(size=n), rng.normal(size=n)
+        ref = SineReference(o, a, rng.uniform(0, 5, n), ph)
+        t = np.r_[rng.uniform(-20, 20, 200), np.arange(301) * 1e-3]
+        q, qd, qdd = ref.evaluate(t)
+        w = ref._omega
+        arg = t[:, None] * w + ph
+        sn, cs = np.sin(arg), np.cos(arg)
+        np.testing.assert_array_equal(q, o + a * sn)
+        np.testing.assert_array_equal(qd, a * w * cs)
+        np.testing.assert_array_equal(qdd, -a * w * w * sn)
+        ms = np.vectorize(math.sin)(arg)
+        mc = np.vectorize(math.cos)(arg)
+        scale = np.abs(a) * (1 + np.abs(arg)) * 4 * EPS
+        assert np.all(np.abs(q - (o + a * ms)) <= scale + 2 * EPS * np.abs(o))
+        assert np.all(np.abs(qd - a * w * mc) <= scale * w)
+        assert np.all(np.abs(qdd + a * w * w * ms) <= scale * w * w)
 
 
 @pytest.mark.parametrize(

@@ -299,6 +299,38 @@ def _sim(**kw: Any) -> Any:
     return simulate(plant, controller, reference, **args)
 
 
+class _NaNAfter(PaperReference):
+    """The paper's reference, NaN in ``qdd`` from 0.01 s on; ``checks`` says whether through
+    :meth:`Reference.evaluate`'s own check (``False``: an ``evaluate`` that replaces it)."""
+
+    __slots__ = ("checks",)
+
+    def __init__(self, checks: bool) -> None:
+        self.checks = checks
+
+    def _evaluate(self, t: np.ndarray) -> Any:
+        q, qd, qdd = super()._evaluate(t)
+        qdd[t >= 0.01] = np.nan
+        return q, qd, qdd
+
+    def evaluate(self, t: Any) -> Any:
+        return super().evaluate(t) if self.checks else self._evaluate(np.asarray(t))
+
+
+@pytest.mark.parametrize(
+    ("checks", "match"),
+    [
+        (True, r"_NaNAfter: qdd is not finite at t = 0\.01 \(joint 0\)"),
+        (False, r"reference qdd must be finite with shape \(41, 3\)"),
+    ],
+)
+def test_non_finite_reference_is_refused(checks: bool, match: str) -> None:
+    """A reference's non-finite value is refused before the loop runs, by the reference's own
+    check or, where a subclass replaced :meth:`Reference.evaluate`, by :func:`simulate`."""
+    with pytest.raises(ValueError, match=match):
+        simulate(ARM, ftsmc(), _NaNAfter(checks), q0=PAPER_Q0, t_final=0.02, dt=DT)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [

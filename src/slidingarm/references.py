@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm._io import MAX_TABLE_BYTES, file_problem
@@ -228,9 +229,8 @@ class Reference(abc.ABC):
                 f"{type(self).__name__} produced {name} of shape {arr.shape}, "
                 f"expected {(t.shape[0], self.n)}"
             )
-        bad = ~np.isfinite(arr)
-        if np.any(bad):
-            k, j = np.argwhere(bad)[0]
+        if not np.isfinite(arr).all():
+            k, j = np.argwhere(~np.isfinite(arr))[0]
             raise ValueError(
                 f"{type(self).__name__}: {name} is not finite at t = {float(t[k])!r} (joint {j})"
             )
@@ -286,6 +286,44 @@ class PaperReference(Reference):
 
 # --------------------------------------------------------------------------------------------
 # quintic point-to-point
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _quintic_into(
+    s: FloatArray,
+    s3: FloatArray,
+    q_start: FloatArray,
+    q_end: FloatArray,
+    delta: FloatArray,
+    d: float,
+    q: FloatArray,
+    qd: FloatArray,
+    qdd: FloatArray,
+) -> None:
+    """:class:`QuinticReference` on the whole grid in one pass, from the normalised times
+    ``s`` (T,) and their cubes ``s3``: :math:`p = \\mathrm{clip}(s^3 (10 + s(-15 + 6 s)), 0, 1)`,
+    ``q[k] = (1 - p) q_start + p q_end``, ``qd[k] = delta 30 s^2 (1 - s)^2 / D``,
+    ``qdd[k] = delta 60 s (1 - s)(1 - 2 s) / D^2`` (T, n), each product and sum in the order
+    (and so with the rounding) of the formula written out elementwise; no fused multiply-add.
+
+    ``p(0) = 0`` and ``p(1) = 1`` exactly in this Horner form, so the ends are exactly
+    ``q_start`` and ``q_end``; the clip keeps rounding from stepping outside ``[0, 1]``
+    (monotone, no overshoot).
+    """
+    d2 = d * d
+    n = q.shape[1]
+    for k in range(s.shape[0]):
+        sk = s[k]
+        p = s3[k] * (10.0 + sk * (-15.0 + 6.0 * sk))
+        p = min(max(p, 0.0), 1.0)
+        om = 1.0 - sk
+        wv = 30.0 * sk * sk * om * om / d
+        wa = 60.0 * sk * om * (1.0 - 2.0 * sk) / d2
+        pm = 1.0 - p
+        for j in range(n):
+            q[k, j] = pm * q_start[j] + p * q_end[j]
+            qd[k, j] = delta[j] * wv
+            qdd[k, j] = delta[j] * wa
 
 
 class QuinticReference(Reference):
@@ -361,14 +399,15 @@ class QuinticReference(Reference):
     def _evaluate(self, t: FloatArray) -> Trajectory:
         d = self._duration
         # s = 1 exactly from t_end = t_start + D on, even where (t_end - t_start) / D rounds below 1
-        s = np.where(t >= self.t_end, 1.0, np.clip((t - self._t_start) / d, 0.0, 1.0))[:, None]
-        # p(0) = 0 and p(1) = 1 exactly in this Horner form, so the ends are exactly q_start and
-        # q_end; the clip keeps rounding from stepping outside [0, 1] (monotone, no overshoot).
-        p = np.clip(s**3 * (10.0 + s * (-15.0 + 6.0 * s)), 0.0, 1.0)
-        q = (1.0 - p) * self._q_start + p * self._q_end
-        one_minus = 1.0 - s
-        qd = self._delta * (30.0 * s * s * one_minus * one_minus / d)
-        qdd = self._delta * (60.0 * s * one_minus * (1.0 - 2.0 * s) / (d * d))
+        s = np.where(t >= self.t_end, 1.0, np.clip((t - self._t_start) / d, 0.0, 1.0))
+        # s**3 by numpy's power (whose last bit may differ from the C library's pow, which the
+        # compiled pass would call): the trajectory stays the one earlier versions recorded
+        s3 = s**3
+        nt = t.shape[0]
+        q = np.empty((nt, self.n))
+        qd = np.empty((nt, self.n))
+        qdd = np.empty((nt, self.n))
+        _quintic_into(s, s3, self._q_start, self._q_end, self._delta, d, q, qd, qdd)
         return q, qd, qdd
 
     def to_dict(self) -> dict[str, Any]:
@@ -389,6 +428,39 @@ class QuinticReference(Reference):
 
 # --------------------------------------------------------------------------------------------
 # sinusoid
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _phase_into(t: FloatArray, omega: FloatArray, phase: FloatArray, out: FloatArray) -> None:
+    """``out[k, j] = t[k] omega[j] + phase[j]`` (T, n): a product, then a sum."""
+    for k in range(t.shape[0]):
+        tk = t[k]
+        for j in range(out.shape[1]):
+            out[k, j] = tk * omega[j] + phase[j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sine_into(
+    offset: FloatArray,
+    amplitude: FloatArray,
+    omega: FloatArray,
+    s: FloatArray,
+    c: FloatArray,
+    qdd: FloatArray,
+) -> None:
+    """:class:`SineReference` from the sines ``s`` and cosines ``c`` of the phase (T, n), in
+    place: ``s`` becomes :math:`o + A s`, ``c`` becomes :math:`(A \\omega) c`, and ``qdd``
+    receives :math:`((-A)\\omega\\omega) s`, each in the order (and rounding) of those
+    products; no fused multiply-add."""
+    n = s.shape[1]
+    for k in range(s.shape[0]):
+        for j in range(n):
+            a = amplitude[j]
+            w = omega[j]
+            sk = s[k, j]
+            qdd[k, j] = -a * w * w * sk
+            s[k, j] = offset[j] + a * sk
+            c[k, j] = a * w * c[k, j]
 
 
 class SineReference(Reference):
@@ -453,12 +525,15 @@ class SineReference(Reference):
         return self._phase
 
     def _evaluate(self, t: FloatArray) -> Trajectory:
-        arg = t[:, None] * self._omega + self._phase
-        s = np.sin(arg)
+        arg = np.empty((t.shape[0], self.n))
+        _phase_into(t, self._omega, self._phase, arg)
+        # the sines and cosines by numpy (whose last bit may differ from the C library's
+        # sin and cos), in place; then the products in one compiled pass
         c = np.cos(arg)
-        a = self._amplitude
-        w = self._omega
-        return self._offset + a * s, a * w * c, -a * w * w * s
+        s = np.sin(arg, out=arg)
+        qdd = np.empty_like(s)
+        _sine_into(self._offset, self._amplitude, self._omega, s, c, qdd)
+        return s, c, qdd
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -835,9 +910,8 @@ class CallableReference(Reference):
                 f"CallableReference: {name}(t) returned shape {arr.shape} for t of shape ({T},); "
                 f"expected {expected}"
             )
-        bad = ~np.isfinite(arr)
-        if np.any(bad):
-            k, j = np.argwhere(bad)[0]
+        if not np.isfinite(arr).all():
+            k, j = np.argwhere(~np.isfinite(arr))[0]
             raise ValueError(
                 f"CallableReference: {name}(t) is not finite at t = {float(t[k])!r} (joint {j}): "
                 f"{float(arr[k, j])!r}"
