@@ -237,7 +237,8 @@ def stage_chunk(definition: SweepDefinition, draws: Iterable[Draw]) -> StagedChu
         k: [] for k in ("plants", "controllers", "sensors", "disturbances", "q0", "qd0",
                         "torque_limits", "seeds")
     }  # fmt: skip
-    kept, refused = [], []
+    kept: list[Draw] = []
+    refused: list[str | None] = []
     for draw in draws:
         kept.append(draw)
         try:

@@ -160,18 +160,18 @@ def _field_adapter(model: type[BaseModel], name: str) -> TypeAdapter[Any] | None
         return None
     decorators = model.__pydantic_decorators__
     later = set(fields[fields.index(name) :]) | {"*"}
-    for dec in decorators.field_validators.values():
-        if later & set(dec.info.fields):
+    for fdec in decorators.field_validators.values():
+        if later & set(fdec.info.fields):
             return None
-    for dec in decorators.model_validators.values():
-        if dec.info.mode != "after" or len(inspect.signature(dec.func).parameters) != 1:
+    for mdec in decorators.model_validators.values():
+        if mdec.info.mode != "after" or len(inspect.signature(mdec.func).parameters) != 1:
             return None
     info = model.model_fields[name]
     if info.discriminator is not None:
         return None
     if not info.metadata:
         return TypeAdapter(info.annotation)
-    return TypeAdapter(Annotated[info.annotation, *info.metadata])  # type: ignore[arg-type]
+    return TypeAdapter(Annotated[info.annotation, *info.metadata])
 
 
 def _after_validators(model: BaseModel) -> BaseModel:
@@ -246,9 +246,12 @@ class Stager:
         parts = parse_key(key)
         route: Route | None = None
         sec, rest = str(parts[0]), parts[1:]
-        index = rest.pop(0) if rest and isinstance(rest[0], int) else None
-        if rest and isinstance(rest[0], str) and (len(rest) == 1 or isinstance(rest[1], int)):
-            field, entry = rest[0], (rest[1] if len(rest) == 2 else None)
+        index: int | None = None
+        if rest and isinstance(rest[0], int):
+            index, rest = rest[0], rest[1:]
+        field = rest[0] if rest else None
+        entry = rest[1] if len(rest) == 2 else None
+        if isinstance(field, str) and len(rest) <= 2 and (entry is None or isinstance(entry, int)):
             assert entry is None or isinstance(entry, int)
             node = getattr(self.scenario, sec, None)
             if index is not None:
@@ -287,7 +290,7 @@ class Stager:
         out = list(current) if isinstance(current, list) else current
         for index, fields in changes.items():
             model = current if index is None else current[index]
-            kind = type(model)
+            kind: type[BaseModel] = type(model)
             update = {}
             for field, raw in fields.items():
                 adapter = _field_adapter(kind, field)
