@@ -89,6 +89,7 @@ def split(definition, out: Path) -> dict[str, float]:  # type: ignore[no-untyped
     clock = CLOCK[0]
     t = dict.fromkeys(PIECES, 0.0)
     _prepare(out, definition)
+    tables = {}
     for c in range(definition.n_chunks):
         t0 = clock()
         draws = draw_chunk(definition, c)
@@ -100,11 +101,12 @@ def split(definition, out: Path) -> dict[str, float]:  # type: ignore[no-untyped
         table = chunk_table(definition, chunk, result)
         t4 = clock()
         write_shard(_shard_path(out, c), table)
+        tables[c] = table
         t5 = clock()
         for name, dt in zip(PIECES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4), strict=False):
             t[name] += dt
     t0 = clock()
-    table = final_table(out, definition)
+    table = final_table(out, definition, tables)
     t1 = clock()
     summary = summarize(table, seed=definition.seed)
     (out / SUMMARY).write_text(summary.to_csv(index=False), encoding="utf-8")

@@ -398,9 +398,12 @@ def _difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> str:
     return "differs in " + ", ".join(keys) if keys else "differs"
 
 
-def final_table(folder: Path, definition: SweepDefinition) -> pd.DataFrame:
+def final_table(
+    folder: Path, definition: SweepDefinition, known: Mapping[int, pd.DataFrame] | None = None
+) -> pd.DataFrame:
     """The shards of ``folder``, in chunk order, as one table, also written (atomically) as
-    ``results.parquet``.
+    ``results.parquet``; ``known`` holds chunks' tables already in memory (those this
+    process wrote), which are not read back.
 
     Raises
     ------
@@ -411,7 +414,9 @@ def final_table(folder: Path, definition: SweepDefinition) -> pd.DataFrame:
 
     parts = []
     for c in range(definition.n_chunks):
-        part = _read_shard(_shard_path(folder, c))
+        part = known.get(c) if known is not None else None
+        if part is None:
+            part = _read_shard(_shard_path(folder, c))
         if part is None:
             raise SweepError(f"shard {c} is missing or cannot be read", file=folder)
         parts.append(part)
@@ -702,7 +707,8 @@ def sweep(
     progress : callable, optional
         ``progress(done, total)`` in draws, after each chunk.
     threads : int
-        Chunks in flight with ``executor=None``.
+        Chunks in flight with ``executor=None`` (each a batch on the batch engine's threads;
+        while one is staged in Python, another runs in compiled code).
     figures : bool
         Draw the figures.
     n_resamples : int
@@ -743,18 +749,20 @@ def sweep(
     total = definition.runs
     if progress is not None:
         progress(done_runs, total)
+    tables: dict[int, pd.DataFrame] = {}
     if todo:
         kind, pool, owned = _client(executor)
         try:
             for c, table in _results(kind, pool, definition, todo, threads):
                 write_shard(_shard_path(folder, c), table)
+                tables[c] = table
                 done_runs += len(definition.chunk_runs(c))
                 if progress is not None:
                     progress(done_runs, total)
         finally:
             for thing in owned or ():
                 thing.close()
-    table = final_table(folder, definition)
+    table = final_table(folder, definition, tables)
     summary = summarize(table, n_resamples=n_resamples, seed=definition.seed)
     atomic_write_text(folder / SUMMARY, summary.to_csv(index=False))
     params = [c for c in table.columns if _is_param(c)]
