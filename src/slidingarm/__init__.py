@@ -55,12 +55,13 @@ from slidingarm.sensors import (
 from slidingarm.simulate import Every, SimulationError, simulate, simulate_batch
 
 if TYPE_CHECKING:
-    from slidingarm import (
-        sweep,  # Monte Carlo; the package is callable: sa.sweep(scenario, runs=..., out=...)
-        tune,  # gain tuning; the package is callable: sa.tune(scenario, controller=..., ...)
-    )
-    from slidingarm.sweep import SweepResult
-    from slidingarm.tune import TuneResult
+    from slidingarm.sweep import SweepPackage, SweepResult
+    from slidingarm.tune import TunePackage, TuneResult
+
+    #: Monte Carlo: the package, callable as ``sa.sweep(scenario, runs=..., out=...)``.
+    sweep: SweepPackage
+    #: Gain tuning: the package, callable as ``sa.tune(scenario, controller=..., ...)``.
+    tune: TunePackage
 
 #: The names imported on first use: (module, attribute or None for the module itself).
 _LAZY: dict[str, tuple[str, str | None]] = {

@@ -50,7 +50,7 @@ def scenario():
     return tiny()
 
 
-def test_stager_equals_the_full_build(scenario):
+def test_stager_equals_the_full_build(scenario, monkeypatch):
     """The fast path builds the very objects a full validation and build gives."""
     dists = {
         **{k: (Distribution.parse(k, v) if isinstance(v, str) else Distribution.from_spec(k, v))
@@ -59,6 +59,7 @@ def test_stager_equals_the_full_build(scenario):
         "disturbances[0].amplitude": Distribution("uniform", (0.0, 2.0)),
         "controllers[2].k": Distribution("uniform", (5.0, 50.0)),
         "gains.width": Distribution("choice", (0.02, 0.05)),
+        "simulation.qd0[1]": Distribution("uniform", (-0.1, 0.1)),
     }  # fmt: skip
     stager = Stager(scenario)
     shapes = key_shapes(scenario, dists)
@@ -66,7 +67,9 @@ def test_stager_equals_the_full_build(scenario):
     bases = stager.bases(dists)
     for i in range(6):
         values = draw_run(11, i, dists, shapes, bases)
-        fast = stager.build(values)
+        with monkeypatch.context() as m:  # the fast path, not the full one
+            m.setattr("slidingarm.sweep.staging.applied", lambda *a: pytest.fail("full path"))
+            fast = stager.build(values)
         _, full = applied(scenario, values)
         assert fast.plant.to_dict() == full.plant.to_dict()
         assert fast.sensor.to_dict() == full.sensor.to_dict()
@@ -78,6 +81,14 @@ def test_stager_equals_the_full_build(scenario):
     # the offset is added to the scenario's q0
     values = draw_run(11, 0, dists, shapes, bases)
     assert np.all(np.abs(np.subtract(values["simulation.q0"], scenario.simulation.q0)) < 0.3)
+    # a value refused by a field validated alone gives the full path's error
+    for key, bad in (("gains.k", -1.0), ("simulation.qd0[1]", float("inf")),
+                     ("controllers[2].k", 0.0), ("mismatch.payload", -0.5)):  # fmt: skip
+        with pytest.raises(ConfigError) as fast_error:
+            stager.build({**values, key: bad})
+        with pytest.raises(ConfigError) as full_error:
+            applied(scenario, {**values, key: bad})
+        assert str(fast_error.value) == str(full_error.value) and key in str(fast_error.value)
 
 
 def test_draws_depend_on_seed_and_index_only(scenario):

@@ -52,6 +52,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from slidingarm.config.scenario import Scenario
+    from slidingarm.results import BatchResult
 
 __all__ = [
     "DEFAULT_CHUNK",
@@ -167,116 +168,182 @@ def _stager(text: str, base_dir: str | None) -> Stager:
 
 
 # --------------------------------------------------------------------------------------------
-# one chunk
+# one chunk: drawn, staged, simulated, tabulated
+
+
+@dataclass(frozen=True)
+class Draw:
+    """One draw of a sweep: its index ``run``, its ``values`` by key, its run ``seed``."""
+
+    run: int
+    values: dict[str, Any]
+    seed: int
+
+
+@dataclass(frozen=True)
+class StagedChunk:
+    """A chunk's draws and the inputs of its batch: per draw that the scenario accepts, one
+    run per controller (in the scenario's order), all on the draw's plant, initial state,
+    sensor, disturbances, torque limit and seed.
+
+    Attributes
+    ----------
+    draws : tuple of Draw
+    refused : tuple of (str or None)
+        Per draw, why the scenario refuses its values (``None``: accepted, simulated).
+    labels : tuple of str
+        The controllers.
+    plants, controllers, sensors, disturbances, q0, qd0, torque_limits, seeds : tuple
+        One entry per run (accepted draws × controllers), run-major.
+    """
+
+    draws: tuple[Draw, ...]
+    refused: tuple[str | None, ...]
+    labels: tuple[str, ...]
+    plants: tuple[Any, ...]
+    controllers: tuple[Any, ...]
+    sensors: tuple[Any, ...]
+    disturbances: tuple[Any, ...]
+    q0: tuple[tuple[float, ...], ...]
+    qd0: tuple[tuple[float, ...], ...]
+    torque_limits: tuple[Any, ...]
+    seeds: tuple[int, ...]
+
+
+def _stager_of(definition: SweepDefinition) -> Stager:
+    return _stager(json.dumps(definition.scenario, sort_keys=True), definition.base_dir)
+
+
+def draw_chunk(definition: SweepDefinition, c: int) -> list[Draw]:
+    """The draws of chunk ``c`` (:func:`~slidingarm.sweep.staging.draw_run`,
+    :func:`~slidingarm.sweep.staging.run_seed`)."""
+    stager = _stager_of(definition)
+    dists = definition.distributions
+    shapes = key_shapes(stager.scenario, dists)
+    bases = stager.bases(dists)
+    return [
+        Draw(i, draw_run(definition.seed, i, dists, shapes, bases), run_seed(definition.seed, i))
+        for i in definition.chunk_runs(c)
+    ]
+
+
+def stage_chunk(definition: SweepDefinition, draws: Iterable[Draw]) -> StagedChunk:
+    """The objects of each draw's runs (:meth:`~slidingarm.sweep.staging.Stager.build`); a
+    draw the scenario refuses is recorded with the reason, not raised."""
+    stager = _stager_of(definition)
+    labels = tuple(stager.setup.controllers)
+    n = stager.setup.nominal.n
+    cols: dict[str, list[Any]] = {
+        k: [] for k in ("plants", "controllers", "sensors", "disturbances", "q0", "qd0",
+                        "torque_limits", "seeds")
+    }  # fmt: skip
+    kept: list[Draw] = []
+    refused: list[str | None] = []
+    for draw in draws:
+        kept.append(draw)
+        try:
+            setup = stager.build(draw.values)
+        except ConfigError as exc:
+            refused.append(str(exc))
+            continue
+        refused.append(None)
+        qd0 = setup.qd0 if setup.qd0 is not None else (0.0,) * n
+        for label in labels:
+            cols["plants"].append(setup.plant)
+            cols["controllers"].append(setup.controllers[label])
+            cols["sensors"].append(setup.sensor)
+            cols["disturbances"].append(setup.disturbances)
+            cols["q0"].append(setup.q0)
+            cols["qd0"].append(qd0)
+            cols["torque_limits"].append(setup.torque_limit)
+            cols["seeds"].append(draw.seed)
+    return StagedChunk(
+        tuple(kept), tuple(refused), labels, **{k: tuple(v) for k, v in cols.items()}
+    )
+
+
+def simulate_chunk(definition: SweepDefinition, staged: StagedChunk) -> BatchResult | None:
+    """One :func:`~slidingarm.simulate_batch` of the staged runs, metrics only, each run's
+    failure recorded (``throw=False``); ``None`` if every draw was refused."""
+    from slidingarm.simulate import simulate_batch
+
+    if not staged.plants:
+        return None
+    base = _stager_of(definition).setup
+    limits = staged.torque_limits
+    return simulate_batch(
+        list(staged.plants),
+        list(staged.controllers),
+        base.reference,
+        q0=np.asarray(staged.q0, dtype=float),
+        qd0=np.asarray(staged.qd0, dtype=float),
+        t_final=base.t_final,
+        dt=base.dt,
+        substeps=base.substeps,
+        sensor=list(staged.sensors),
+        disturbances=list(staged.disturbances),
+        torque_limit=list(limits) if any(x is not None for x in limits) else None,
+        seeds=list(staged.seeds),
+        record="metrics",
+        throw=False,
+    )
+
+
+def chunk_table(
+    definition: SweepDefinition, staged: StagedChunk, result: BatchResult | None
+) -> pd.DataFrame:
+    """The chunk's table (see :func:`sweep`), column by column: run-major, then controller,
+    then joint; a refused draw's rows carry NaN metrics, ``status`` "refused" and the reason."""
+    import pandas as pd
+
+    n = _stager_of(definition).setup.nominal.n
+    labels = staged.labels
+    joints = [str(j + 1) for j in range(n)] + ["mean"]
+    J, L, D = len(joints), len(labels), len(staged.draws)
+    per_run = L * J
+    rows = D * per_run
+    valid = np.repeat(np.array([r is None for r in staged.refused], dtype=bool), per_run)
+    columns: dict[str, Any] = {
+        "run": np.repeat(np.array([d.run for d in staged.draws], dtype=np.int64), per_run),
+        "controller": np.tile(np.repeat(np.array(labels, dtype=object), J), D),
+        "joint": np.tile(np.array(joints, dtype=object), L * D),
+    }
+    metrics = result.metrics() if result is not None else None
+    for name in METRIC_COLUMNS:
+        col = np.full(rows, np.nan)
+        if metrics is not None:
+            col[valid] = metrics[name].to_numpy(dtype=np.float64)
+        columns[name] = col
+    params = [columns_of(d.values) for d in staged.draws]
+    for key in params[0] if params else ():
+        columns[key] = np.repeat(np.array([p[key] for p in params], dtype=np.float64), per_run)
+    columns["seed"] = np.repeat(np.array([d.seed for d in staged.draws], dtype=np.int64), per_run)
+    ok = np.zeros(rows, dtype=bool)
+    status = np.full(rows, "refused", dtype=object)
+    message = np.repeat(np.array([r or "" for r in staged.refused], dtype=object), per_run)
+    if result is not None:
+        ok[valid] = np.repeat(np.asarray(result.ok, dtype=bool), J)
+        status[valid] = np.repeat(np.asarray(result.status, dtype=object), J)
+        message[valid] = np.repeat(np.asarray(result.message, dtype=object), J)
+    columns["ok"] = ok
+    columns["status"] = status
+    columns["message"] = message
+    table = pd.DataFrame(columns)
+    for name in ("controller", "joint", "status", "message"):
+        table[name] = table[name].astype(str)
+    return table
 
 
 def run_chunk(definition: SweepDefinition, c: int) -> pd.DataFrame:
     """Simulate chunk ``c`` of ``definition``: its table (see :func:`sweep`).
 
-    A pure function of ``(definition, c)``, picklable, so that it runs as a Dask task on a
-    worker that shares no file system with the client (beyond the scenario's own table or URDF
-    files, if it has any).
+    :func:`draw_chunk`, :func:`stage_chunk`, :func:`simulate_chunk` and :func:`chunk_table`
+    in turn. A pure function of ``(definition, c)``, picklable, so that it runs as a Dask task
+    on a worker that shares no file system with the client (beyond the scenario's own table or
+    URDF files, if it has any).
     """
-    import pandas as pd
-
-    from slidingarm.simulate import simulate_batch
-
-    d = definition
-    stager = _stager(json.dumps(d.scenario, sort_keys=True), d.base_dir)
-    base = stager.setup
-    labels = list(base.controllers)
-    dists = d.distributions
-    shapes = key_shapes(stager.scenario, dists)
-    bases = stager.bases(dists)
-    plants, ctrls, sensors, disturbances, q0, qd0, limits, seeds = [], [], [], [], [], [], [], []
-    draws: list[tuple[int, dict[str, Any], int, str | None]] = []
-    for i in d.chunk_runs(c):
-        values = draw_run(d.seed, i, dists, shapes, bases)
-        seed = run_seed(d.seed, i)
-        try:
-            setup = stager.build(values)
-        except ConfigError as exc:
-            draws.append((i, values, seed, str(exc)))
-            continue
-        draws.append((i, values, seed, None))
-        for label in labels:
-            plants.append(setup.plant)
-            ctrls.append(setup.controllers[label])
-            sensors.append(setup.sensor)
-            disturbances.append(setup.disturbances)
-            q0.append(setup.q0)
-            qd0.append(setup.qd0 if setup.qd0 is not None else (0.0,) * len(setup.q0))
-            limits.append(setup.torque_limit)
-            seeds.append(seed)
-    n = base.nominal.n
-    joints = [str(j + 1) for j in range(n)] + ["mean"]
-    per_run = len(labels) * len(joints)
-    metrics: pd.DataFrame | None = None
-    runs_info: pd.DataFrame | None = None
-    if plants:
-        result = simulate_batch(
-            plants,
-            ctrls,
-            base.reference,
-            q0=np.asarray(q0, dtype=float),
-            qd0=np.asarray(qd0, dtype=float),
-            t_final=base.t_final,
-            dt=base.dt,
-            substeps=base.substeps,
-            sensor=sensors,
-            disturbances=disturbances,
-            torque_limit=limits if any(x is not None for x in limits) else None,
-            seeds=seeds,
-            record="metrics",
-            throw=False,
-        )
-        metrics = result.metrics()
-        runs_info = result.runs()
-    # the table, column by column (run-major, then controller, then joint)
-    J, L = len(joints), len(labels)
-    rows = len(draws) * per_run
-    valid = np.repeat([refused is None for _, _, _, refused in draws], per_run)
-    columns: dict[str, Any] = {
-        "run": np.repeat(np.array([i for i, _, _, _ in draws], dtype=np.int64), per_run),
-        "controller": np.tile(np.repeat(np.array(labels, dtype=object), J), len(draws)),
-        "joint": np.tile(np.array(joints, dtype=object), L * len(draws)),
-    }
-    for name in METRIC_COLUMNS:
-        col = np.full(rows, np.nan)
-        if metrics is not None:
-            col[valid] = metrics[name].to_numpy(dtype=float)
-        columns[name] = col
-    params = [columns_of(values) for _, values, _, _ in draws]
-    for key in params[0]:
-        columns[key] = np.repeat(np.array([p[key] for p in params], dtype=float), per_run)
-    columns["seed"] = np.repeat(np.array([s for _, _, s, _ in draws], dtype=np.int64), per_run)
-    ok = np.zeros(rows, dtype=bool)
-    status = np.full(rows, "refused", dtype=object)
-    message = np.repeat(np.array([r or "" for _, _, _, r in draws], dtype=object), per_run)
-    if runs_info is not None:
-        ok[valid] = np.repeat(runs_info["ok"].to_numpy(dtype=bool), J)
-        status[valid] = np.repeat(np.asarray(runs_info["status"], dtype=object), J)
-        message[valid] = np.repeat(np.asarray(runs_info["message"], dtype=object), J)
-    columns["ok"] = ok
-    columns["status"] = status
-    columns["message"] = message
-    return _typed(pd.DataFrame(columns))
-
-
-def _typed(table: pd.DataFrame) -> pd.DataFrame:
-    """One dtype per column whatever the chunk: int64 run and seed, float64 metrics and
-    parameters, bool ok, strings."""
-    out = table.copy()
-    for col in out.columns:
-        if col in ("run", "seed"):
-            out[col] = out[col].astype("int64")
-        elif col == "ok":
-            out[col] = out[col].astype(bool)
-        elif col in ("controller", "joint", "status", "message"):
-            out[col] = out[col].astype(str)
-        else:
-            out[col] = out[col].astype("float64")
-    return out
+    staged = stage_chunk(definition, draw_chunk(definition, c))
+    return chunk_table(definition, staged, simulate_chunk(definition, staged))
 
 
 # --------------------------------------------------------------------------------------------
@@ -331,7 +398,36 @@ def _difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> str:
     return "differs in " + ", ".join(keys) if keys else "differs"
 
 
-def _write_shard(path: Path, table: pd.DataFrame) -> None:
+def final_table(
+    folder: Path, definition: SweepDefinition, known: Mapping[int, pd.DataFrame] | None = None
+) -> pd.DataFrame:
+    """The shards of ``folder``, in chunk order, as one table, also written (atomically) as
+    ``results.parquet``; ``known`` holds chunks' tables already in memory (those this
+    process wrote), which are not read back.
+
+    Raises
+    ------
+    SweepError
+        If a shard is missing or unreadable.
+    """
+    import pandas as pd
+
+    parts = []
+    for c in range(definition.n_chunks):
+        part = known.get(c) if known is not None else None
+        if part is None:
+            part = _read_shard(_shard_path(folder, c))
+        if part is None:
+            raise SweepError(f"shard {c} is missing or cannot be read", file=folder)
+        parts.append(part)
+    table = pd.concat(parts, ignore_index=True)
+    buf = io.BytesIO()
+    table.to_parquet(buf, index=False, engine="pyarrow")
+    atomic_write_bytes(folder / RESULTS, buf.getvalue())
+    return table
+
+
+def write_shard(path: Path, table: pd.DataFrame) -> None:
     buf = io.BytesIO()
     table.to_parquet(buf, index=False, engine="pyarrow")
     atomic_write_bytes(path, buf.getvalue())
@@ -611,7 +707,8 @@ def sweep(
     progress : callable, optional
         ``progress(done, total)`` in draws, after each chunk.
     threads : int
-        Chunks in flight with ``executor=None``.
+        Chunks in flight with ``executor=None`` (each a batch on the batch engine's threads;
+        while one is staged in Python, another runs in compiled code).
     figures : bool
         Draw the figures.
     n_resamples : int
@@ -627,8 +724,6 @@ def sweep(
         For a bad key, distribution or count (naming it), and :class:`SweepError` for a folder
         that holds something else or another sweep (nothing in it is changed).
     """
-    import pandas as pd
-
     from slidingarm.sweep.summary import summarize
 
     start = time.perf_counter()
@@ -654,30 +749,23 @@ def sweep(
     total = definition.runs
     if progress is not None:
         progress(done_runs, total)
+    tables: dict[int, pd.DataFrame] = {}
     if todo:
         kind, pool, owned = _client(executor)
         try:
             for c, table in _results(kind, pool, definition, todo, threads):
-                _write_shard(_shard_path(folder, c), table)
+                write_shard(_shard_path(folder, c), table)
+                tables[c] = table
                 done_runs += len(definition.chunk_runs(c))
                 if progress is not None:
                     progress(done_runs, total)
         finally:
             for thing in owned or ():
                 thing.close()
-    parts = []
-    for c in range(definition.n_chunks):
-        part = _read_shard(_shard_path(folder, c))
-        if part is None:  # pragma: no cover - written above
-            raise SweepError(f"shard {c} cannot be read back", file=folder)
-        parts.append(part)
-    table = pd.concat(parts, ignore_index=True)
-    buf = io.BytesIO()
-    table.to_parquet(buf, index=False, engine="pyarrow")
-    atomic_write_bytes(folder / RESULTS, buf.getvalue())
-    params = [c for c in table.columns if _is_param(c)]
+    table = final_table(folder, definition, tables)
     summary = summarize(table, n_resamples=n_resamples, seed=definition.seed)
     atomic_write_text(folder / SUMMARY, summary.to_csv(index=False))
+    params = [c for c in table.columns if _is_param(c)]
     files = [folder / DEFINITION, folder / RESULTS, folder / SUMMARY]
     if figures:
         files += _figures(table, params, folder / "figures")

@@ -7,25 +7,32 @@ So a draw does not depend on the chunk it falls in, on the number of workers, no
 keys of the sweep (adding a key leaves the other keys' draws as they were).
 
 Building a scenario per draw (validate everything, build every component) costs about 2 ms;
-:class:`Stager` validates only the tables a draw changes and rebuilds only the components that
-depend on them (``mismatch`` the plant, ``sensor`` the sensor, ``disturbances`` the
+:class:`Stager` validates only what a draw changes and rebuilds only the components that
+depend on it (``mismatch`` the plant, ``sensor`` the sensor, ``disturbances`` the
 disturbances, ``gains`` and ``controllers`` the controllers, ``simulation`` the initial state
 and torque limit), which gives the same objects as :func:`~slidingarm.sweep.space.applied`
 (a test checks it); anything else (``plant``, or an initial state of a serial arm, whose limits
-are checked against the reference) takes the full path.
+are checked against the reference) takes the full path. A key that names a field of a table
+(``gains.k``, ``mismatch.payload``, ``controllers[2].k``, ``simulation.q0[1]``) is validated
+alone, by that field's own type and rules, on a copy of the validated table (the table's
+after-validators run on the copy): the rules a full validation applies to it, unless a field
+validator of the table could read it (a validator of that field or of a later one sees the
+earlier fields), in which case the whole table is validated again. A draw the fast path
+refuses takes the full path, whose error names the key and says why.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import inspect
 import zlib
 from collections.abc import Mapping
-from functools import partial
-from typing import TYPE_CHECKING, Any
+from functools import lru_cache, partial
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
-from pydantic import TypeAdapter, ValidationError
+from pydantic import BaseModel, TypeAdapter, ValidationError
 
 from slidingarm.config.errors import ConfigError
 from slidingarm.config.specs import (
@@ -43,6 +50,7 @@ from slidingarm.models.serial import SerialArm
 from slidingarm.sweep.space import (
     Distribution,
     _is_numeric,
+    _plain,
     _set,
     applied,
     get_value,
@@ -140,6 +148,46 @@ def draw_run(
     return out
 
 
+@lru_cache(maxsize=256)
+def _field_adapter(model: type[BaseModel], name: str) -> TypeAdapter[Any] | None:
+    """The validator of field ``name`` of ``model`` alone, or ``None`` where validating it
+    alone could differ from validating the whole model: a field validator on it or on a later
+    field (pydantic hands a field validator the fields before it), a model validator other
+    than a plain ``after`` one, a discriminated field, or a model config beyond ``extra`` and
+    ``frozen``."""
+    fields = list(model.model_fields)
+    if name not in fields or set(model.model_config) - {"extra", "frozen"}:
+        return None
+    decorators = model.__pydantic_decorators__
+    later = set(fields[fields.index(name) :]) | {"*"}
+    for fdec in decorators.field_validators.values():
+        if later & set(fdec.info.fields):
+            return None
+    for mdec in decorators.model_validators.values():
+        if mdec.info.mode != "after" or len(inspect.signature(mdec.func).parameters) != 1:
+            return None
+    info = model.model_fields[name]
+    if info.discriminator is not None:
+        return None
+    if not info.metadata:
+        return TypeAdapter(info.annotation)
+    return TypeAdapter(Annotated[info.annotation, *info.metadata])
+
+
+def _after_validators(model: BaseModel) -> BaseModel:
+    """``model`` through its class's ``after`` model validators (which raise ValueError)."""
+    for dec in type(model).__pydantic_decorators__.model_validators.values():
+        out = dec.func(model)
+        if isinstance(out, type(model)):
+            model = out
+    return model
+
+
+#: A key a table's field validator takes alone: (section, index in a list section or None,
+#: field, index in the field's list or None).
+Route = tuple[str, int | None, str, int | None]
+
+
 class Stager:
     """Builds the :class:`~slidingarm.config.Setup` of a draw from a base scenario,
     rebuilding only what the draw changes.
@@ -155,6 +203,8 @@ class Stager:
         self.data = scenario.to_dict()
         self.setup = scenario.build()
         self.serial = isinstance(self.setup.nominal, SerialArm)
+        self._sections: dict[str, str] = {}
+        self._routes: dict[str, Route | None] = {}
 
     def bases(self, keys: Mapping[str, Any]) -> dict[str, Any]:
         """The scenario's value of each key (``None`` where unset)."""
@@ -174,34 +224,90 @@ class Stager:
         ConfigError
             Naming the key whose value the scenario refuses (as :func:`apply`).
         """
-        sections = {str(parse_key(k)[0]) for k in values}
+        sections = {self._section(k) for k in values}
         fast = sections <= FAST_SECTIONS and not (self.serial and "simulation" in sections)
         if fast:
             try:
                 return self._fast(values, sections)
-            except (ConfigError, ValidationError, ValueError):
+            except (ConfigError, ValidationError, ValueError, TypeError):
                 pass  # the full path names the key and says why
         return applied(self.scenario, values)[1]
 
+    def _section(self, key: str) -> str:
+        sec = self._sections.get(key)
+        if sec is None:
+            sec = self._sections[key] = str(parse_key(key)[0])
+        return sec
+
+    def _route(self, key: str) -> Route | None:
+        """How ``key`` is validated alone, or ``None`` (its whole table is validated)."""
+        if key in self._routes:
+            return self._routes[key]
+        parts = parse_key(key)
+        route: Route | None = None
+        sec, rest = str(parts[0]), parts[1:]
+        index: int | None = None
+        if rest and isinstance(rest[0], int):
+            index, rest = rest[0], rest[1:]
+        field = rest[0] if rest else None
+        entry = rest[1] if len(rest) == 2 else None
+        if isinstance(field, str) and len(rest) <= 2 and (entry is None or isinstance(entry, int)):
+            assert entry is None or isinstance(entry, int)
+            node = getattr(self.scenario, sec, None)
+            if index is not None:
+                node = node[index] if isinstance(node, list) and index < len(node) else None
+            if isinstance(node, BaseModel) and _field_adapter(type(node), field) is not None:
+                route = (sec, index, field, entry)
+        self._routes[key] = route
+        return route
+
+    def _table(self, sec: str, keys: list[str], values: Mapping[str, Any]) -> Any:
+        """Section ``sec`` of the scenario with ``keys`` set to their ``values``, validated."""
+        routes = [self._route(k) for k in keys]
+        if not all(routes):
+            data = copy.deepcopy(self.data[sec])
+            holder = {sec: data}
+            for key in keys:
+                _set(holder, key, values[key])
+            if sec == "disturbances":
+                return [_DISTURBANCE.validate_python(d) for d in data]
+            if sec == "controllers":
+                return [ControllerSpec.model_validate(c) for c in data]
+            return _SPECS[sec].model_validate(data)
+        current = getattr(self.scenario, sec)
+        changes: dict[int | None, dict[str, Any]] = {}
+        for key, route in zip(keys, routes, strict=True):
+            assert route is not None
+            _, index, field, entry = route
+            mine = changes.setdefault(index, {})
+            value = _plain(values[key])
+            if entry is not None:
+                model = current if index is None else current[index]
+                whole = list(mine.get(field, getattr(model, field)))
+                whole[entry] = value  # an IndexError or TypeError: the full path says why
+                value = whole
+            mine[field] = value
+        out = list(current) if isinstance(current, list) else current
+        for index, fields in changes.items():
+            model = current if index is None else current[index]
+            kind: type[BaseModel] = type(model)
+            update = {}
+            for field, raw in fields.items():
+                adapter = _field_adapter(kind, field)
+                assert adapter is not None
+                update[field] = adapter.validate_python(raw)
+            new = _after_validators(model.model_copy(update=update))
+            if index is None:
+                out = new
+            else:
+                out[index] = new
+        return out
+
     def _fast(self, values: Mapping[str, Any], sections: set[str]) -> Setup:
-        data = dict(self.data)
-        for sec in sections:
-            data[sec] = copy.deepcopy(self.data[sec])
-        for key, value in values.items():
-            _set(data, key, value)
-        update: dict[str, Any] = {}
-        if "mismatch" in sections:
-            update["mismatch"] = MismatchSpec.model_validate(data["mismatch"])
-        if "sensor" in sections:
-            update["sensor"] = SensorSpec.model_validate(data["sensor"])
-        if "disturbances" in sections:
-            update["disturbances"] = [_DISTURBANCE.validate_python(d) for d in data["disturbances"]]
-        if "gains" in sections:
-            update["gains"] = GainsSpec.model_validate(data["gains"])
-        if "controllers" in sections:
-            update["controllers"] = [ControllerSpec.model_validate(c) for c in data["controllers"]]
-        if "simulation" in sections:
-            update["simulation"] = SimulationSpec.model_validate(data["simulation"])
+        by_section: dict[str, list[str]] = {}
+        for key in values:
+            by_section.setdefault(self._section(key), []).append(key)
+        update = {sec: self._table(sec, keys, values) for sec, keys in by_section.items()}
         sc = self.scenario.model_copy(update=update)
         base = self.setup
         sc._check_lengths(base.nominal.n)
@@ -232,6 +338,15 @@ class Stager:
                 _tuple(sim.torque_limit) if sim.torque_limit is not None else None
             )
         return dataclasses.replace(base, **changed)
+
+
+#: The model of each table section (the list sections are validated entry by entry).
+_SPECS: dict[str, type[BaseModel]] = {
+    "mismatch": MismatchSpec,
+    "sensor": SensorSpec,
+    "gains": GainsSpec,
+    "simulation": SimulationSpec,
+}
 
 
 def columns_of(values: Mapping[str, Any]) -> dict[str, float]:

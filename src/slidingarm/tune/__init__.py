@@ -9,14 +9,15 @@
 
 The package itself is callable, as :mod:`slidingarm.sweep` is: ``slidingarm.tune(scenario,
 controller="ftsmc", trials=100, out="dir")`` is :func:`slidingarm.tune.tuning.tune`, and
-``import slidingarm.tune.space`` still works.
+``import slidingarm.tune.space`` still works. Type checkers see the package as a
+:class:`TunePackage`: called, it is :func:`~slidingarm.tune.tuning.tune` with its signature.
 """
 
 from __future__ import annotations
 
 import sys
 import types
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from slidingarm.tune.compare import FULL, QUICK, Budget, CompareResult, compare
 from slidingarm.tune.evaluate import STATISTICS, Score, reduce, score, tuning_scenario, with_gains
@@ -53,12 +54,31 @@ __all__ = [
 ]
 
 
-class _Callable(types.ModuleType):
+class TunePackage(types.ModuleType):
     """This package, callable: ``slidingarm.tune(scenario, controller=..., trials=..., out=...)``
-    is :func:`slidingarm.tune.tuning.tune`."""
+    is :func:`slidingarm.tune.tuning.tune` (the class of the package's module object, as type
+    checkers read ``slidingarm.tune``; see :class:`slidingarm.sweep.SweepPackage`)."""
 
-    def __call__(self, *args: Any, **kwargs: Any) -> TuneResult:
-        return tune(*args, **kwargs)
+    if TYPE_CHECKING:
+        __call__ = staticmethod(tune)
+        Budget = Budget
+        CompareResult = CompareResult
+        GainBound = GainBound
+        GainSpace = GainSpace
+        Score = Score
+        TuneResult = TuneResult
+        compare = staticmethod(compare)
+        gain_space = staticmethod(gain_space)
+        parse_bound = staticmethod(parse_bound)
+        reduce = staticmethod(reduce)
+        score = staticmethod(score)
+        tune = staticmethod(tune)
+        tuning_scenario = staticmethod(tuning_scenario)
+        with_gains = staticmethod(with_gains)
+    else:
+
+        def __call__(self, *args: Any, **kwargs: Any) -> TuneResult:
+            return tune(*args, **kwargs)
 
 
-sys.modules[__name__].__class__ = _Callable
+sys.modules[__name__].__class__ = TunePackage
