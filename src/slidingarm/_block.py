@@ -4,45 +4,58 @@
 planar kind (plant and nominal model) and the built-in sliding-mode law with ``law =
 "model"``: every surface, switching function and reaching law of
 :func:`slidingarm.control._kernels.control_into`, every velocity estimator, the held and added
-measurement arrays, torque disturbances, torque limits and ``substeps``. Every state and
-parameter is a structure-of-arrays block ``(rows, n, W)`` with the lane (run) index innermost
-and contiguous; every lane loop is ``for ln in range(W)`` with ``W`` a compile-time constant and
-a branch-free body (a per-lane condition is a select), so that LLVM turns it into ``<8 x
-double>`` operations. The law's codes, the velocity estimator and ``substeps`` are the same for
-every lane of a block (the caller groups runs by them), so their branches are uniform.
+measurement arrays, torque disturbances, torque limits and ``substeps``. The law's codes, the
+velocity estimator and ``substeps`` are the same for every lane of a block (the caller groups
+runs by them), so their branches are uniform.
+
+**Layout.** Everything a lane's loop touches (state, parameters, scratch, metric
+accumulators) lives in one flat float64 workspace, structure of arrays: lane scalars at
+``ws[_L_X + ln]``, joint ``i``'s rows at ``ws[J0 + i JS + _X + ln]`` with every ``_X`` a
+multiple of ``W``, the lane index ``ln`` innermost and contiguous. Every lane loop is ``for ln
+in range(W)`` with ``W`` a compile-time constant and a branch-free body (a per-lane choice is a
+select between two computed values). One array and offsets that differ by compile-time
+constants let LLVM prove that a loop's stores do not alias its loads, so its SLP vectoriser
+turns each unrolled lane loop into ``<8 x double>`` operations (several arrays, or rows
+strided by the run-time ``n``, defeat that proof and nothing vectorises). numba leaves the SLP
+vectoriser off by default; :func:`compiled` turns it on for this module's compilation only.
+A lane loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those
+calls have loops of their own and the arithmetic around them still vectorises.
 
 **Results.** Each lane computes exactly what :func:`~slidingarm._engine.run_one` computes for
 its run: the same floating-point operations in the same order, with the same elementary
-functions (:data:`sin`, :data:`cos`, :data:`tanh`, :data:`pow_abs`), no ``fastmath`` flag on
-any operation (lanes are independent, so vectorising needs no reassociation, and without
-``contract`` no multiply-add is fused differently from the scalar loop). A run's trajectory is
-therefore bit-identical to the scalar path's, whatever lane or block it lands in, whatever the
-thread count: no value ever crosses lanes. The only block-wide decisions are whether *any* lane
-needs something (the sines and cosines of a large RK4 stage step, a measurement that differed
-from the state), and the lanes that do not need it discard it by a select, so they compute what
-they would alone.
+functions, and no ``fastmath`` flag on any operation: lanes are independent, so vectorising
+needs no reassociation, and without ``contract`` no multiply-add is fused where the scalar loop
+does not fuse one. A run's trajectory is therefore bit-identical to the scalar path's,
+whatever lane or block it lands in and whatever the thread count: no value crosses lanes. The
+only block-wide decisions are whether *any* lane needs something (the direct sines and cosines
+of a large RK4 stage step, a measurement that differed from the state), and a lane that does
+not need it discards it by a select, so it computes what it would alone.
 
 **Status.** A lane whose torque, sliding variable or state stops being finite, or whose speed
 exceeds ``qd_limit``, records ``[code, sample, joint]`` as ``run_one`` would, stops writing
-outputs, and is reset to its initial state so that its garbage cannot slow the block (denormals,
-overflow); when every lane has failed or finished the block returns. A lane of the planar kind
-with positive masses has positive ABA pivots for any finite state, so the singular-matrix code
-is reached only with a non-finite state, which is reported as such first.
+outputs and restarts from its initial state (finite values cost what live ones cost); when
+every lane has failed the block returns. ``run_one``'s ABA returns early at a pivot that is not
+positive; the block computes on and only records the failure, which for a planar arm with
+positive masses happens only with a non-finite state, reported as such first.
 
 **Metrics** (``record`` other than ``"full"``): the kernel streams per lane what
-:func:`slidingarm.results.metric_values` computes from the traces (sums by Neumaier's
-compensated summation, maxima, the last sample outside a band and its neighbour for the
-reaching and settling times); :func:`finish_metrics` turns them into the metrics by the very
-formulas of :mod:`slidingarm.metrics`. The one metric that cannot stream is the FFT measure
-``hf_power_share``: for it the kernel keeps each run's torque trace ``(T, n)`` only.
+:func:`slidingarm.results.metric_values` computes from the traces: the sums by Neumaier's
+compensated summation (more accurate than numpy's pairwise sums, so the two agree to rounding),
+the maxima, and for the reaching and settling times the last sample outside the band with the
+values there and at the next sample; :func:`finish_metrics` applies the formulas of
+:mod:`slidingarm.metrics` to them. The FFT measure ``hf_power_share`` cannot stream: for it
+the kernel writes each run's torque trace ``(T, n)``, and numpy computes it per chunk of runs.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 from numba import njit
+from numba.core import config as _numba_config
 
 from slidingarm import _engine as E
 from slidingarm.control import _kernels as CK
@@ -50,235 +63,345 @@ from slidingarm.control import _kernels as CK
 #: Lanes of a block: eight float64, one AVX-512 register.
 W = 8
 
-#: The elementary functions of the block loop. They must be those of the scalar loop
-#: (:mod:`slidingarm.models._kernels`, :mod:`slidingarm.control._kernels`) for bit-identical
-#: runs.
+#: The elementary functions of the block loop: those of the scalar loop
+#: (:mod:`slidingarm.models._kernels`, :mod:`slidingarm.control._kernels`), so that runs are
+#: bit-identical.
 sin = math.sin
 cos = math.cos
 tanh = math.tanh
 
+_OPT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+
+@njit(inline="always", **_OPT)
 def pow_abs(x: float, g: float) -> float:
     """:math:`|x|^g` as the scalar law computes it (``abs(x) ** g``)."""
     return abs(x) ** g
 
 
-# ---------------------------------------------------------------------- workspace rows (n, W)
-_Q = 0
-_QD = 1
-_QM = 2
-_QDM = 3
-_QMP = 4
-_Z0 = 5
-_ST = 6  # super-twisting integral w
-_TAPP = 7  # held input tau + d
-_S = 8
-_NU = 9
-_ACC = 10
-_TAU = 11
-_LC = 12  # law's cos / sin of the measured absolute angles
-_LS = 13
-_R2 = 14  # RNEA rows 2-4
-_R3 = 15
-_R4 = 16
-_K0 = 17  # 4 RK4 stages
-_DQ = 21
-_QT = 22
-_VT = 23
-_BC = 24  # base cos / sin of the step's start
-_BS = 25
-_AC = 26  # stage cos / sin
-_AS = 27
-_A2 = 28  # ABA rows 2-6
-_DC = 33  # direct cos / sin of a stage (when a lane's step is large)
-_DS = 34
-_EPSG = 35  # eps_e ** (gamma - 1) per joint
-_TMP = 36  # |e| / pow results
-_TMP2 = 37
-_TMP3 = 38
-WS_ROWS = 39
+@njit(inline="always", **_OPT)
+def _sgn(x: float) -> float:
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
 
-# lane scalars (rows of (NLV, W))
-_L_PHI = 0
-_L_W = 1
-_L_WD = 2
-_L_AX = 3
-_L_AY = 4
-_L_FX = 5
-_L_FY = 6
-_L_MOM = 7
-_L_OK = 8  # RK4 pivots all positive (1.0 / 0.0)
-_L_ALIVE = 9
-_L_DELTA = 10
-_L_FAR = 11
-_L_BAD = 12
-_L_CODE = 13
-_L_JOINT = 14
-_L_EXACT = 15
-_L_T = 16  # ABA pass temporaries
-_NLV = 40
 
-# metric accumulators (rows of (NACC, n, W))
-M_SE2 = 0  # sum of e^2 (Neumaier: sum, compensation)
+# lane scalars: ws[_L_X + ln]
+_L_PHI = 0 * W
+_L_W = 1 * W
+_L_WD = 2 * W
+_L_AX = 3 * W
+_L_AY = 4 * W
+_L_FX = 5 * W
+_L_FY = 6 * W
+_L_MOM = 7 * W
+_L_OK = 8 * W
+_L_ALIVE = 9 * W
+_L_DELTA = 10 * W
+_L_FAR = 11 * W
+_L_BAD = 12 * W
+_L_CODE = 13 * W
+_L_JOINT = 14 * W
+_L_G = 15 * W
+_L_MG = 16 * W
+_L_T0 = 17 * W
+_L_T1 = 18 * W
+_L_T2 = 19 * W
+_L_T3 = 20 * W
+_L_T4 = 21 * W
+_L_T5 = 22 * W
+_L_T6 = 23 * W
+_L_T7 = 24 * W
+_L_T8 = 25 * W
+_NLV = 26
+#: Start of the per-joint rows: ws[J0 + i JS + _X + ln] for joint i.
+J0 = _NLV * W
+_Q = 0 * W
+_QD = 1 * W
+_QM = 2 * W
+_QDM = 3 * W
+_QMP = 4 * W
+_Z0 = 5 * W
+_ST = 6 * W
+_TAPP = 7 * W
+_S = 8 * W
+_NU = 9 * W
+_ACC = 10 * W
+_TAU = 11 * W
+_LC = 12 * W
+_LS = 13 * W
+_R2 = 14 * W
+_R3 = 15 * W
+_R4 = 16 * W
+_K0 = 17 * W
+_K1 = 18 * W
+_K2 = 19 * W
+_K3 = 20 * W
+_KX = 21 * W
+_DQ = 22 * W
+_QT = 23 * W
+_VT = 24 * W
+_BC = 25 * W
+_BS = 26 * W
+_AC = 27 * W
+_AS = 28 * W
+_A2 = 29 * W
+_A3 = 30 * W
+_A4 = 31 * W
+_A5 = 32 * W
+_A6 = 33 * W
+_DC = 34 * W
+_DS = 35 * W
+_EPSG = 36 * W
+_TMP = 37 * W
+_TMP2 = 38 * W
+_TMP3 = 39 * W
+_MADD = 40 * W
+_MHOLD = 41 * W
+_DIST = 42 * W
+_PM = 43 * W
+_PL = 44 * W
+_PC = 45 * W
+_PI = 46 * W
+_MM = 47 * W
+_ML = 48 * W
+_MC = 49 * W
+_MI = 50 * W
+_CFA = 51 * W
+_CFB = 52 * W
+_CFG = 53 * W
+_CFK = 54 * W
+_CFW = 55 * W
+_CFK2 = 56 * W
+_CFE = 57 * W
+_VF0 = 58 * W
+_VF1 = 59 * W
+_VF2 = 60 * W
+_VF3 = 61 * W
+_TMAX = 62 * W
+_Q0 = 63 * W
+_QD0 = 64 * W
+#: First metric accumulator row (rows M_* follow, per joint).
+_MACC = 65
+M_SE2 = 0
 M_SE2C = 1
-M_IAE = 2  # sum of (|e_k| + |e_k-1|)(t_k - t_k-1)
+M_IAE = 2
 M_IAEC = 3
 M_ITAE = 4
 M_ITAEC = 5
-M_EFF = 6  # sum of tau_k^2 (t_k+1 - t_k), k <= T-2
+M_EFF = 6
 M_EFFC = 7
-M_CHAT = 8  # sum of |tau_k - tau_k-1|, 1 <= k <= T-2
+M_CHAT = 8
 M_CHATC = 9
-M_PEAK = 10  # max |tau_k|, k <= T-2
-M_SSE = 11  # max |e_k|, k >= start
-M_FINAL = 12  # e_T-1
-M_S_LAST = 13  # last sample with |s| > delta_s (-1: none), s there and at the next sample
+M_PEAK = 10
+M_SSE = 11
+M_FINAL = 12
+M_S_LAST = 13
 M_S_XK = 14
 M_S_XK1 = 15
 M_E_LAST = 16
 M_E_XK = 17
 M_E_XK1 = 18
-M_PAE = 19  # previous |e|, (t - t0)|e|, tau
+M_PAE = 19
 M_PWE = 20
 M_PTAU = 21
 NACC = 22
+_NJR = _MACC + NACC
+#: Stride of one joint's rows.
+JS = _NJR * W
+_A_SE2 = (_MACC + M_SE2) * W
+_A_SE2C = (_MACC + M_SE2C) * W
+_A_IAE = (_MACC + M_IAE) * W
+_A_IAEC = (_MACC + M_IAEC) * W
+_A_ITAE = (_MACC + M_ITAE) * W
+_A_ITAEC = (_MACC + M_ITAEC) * W
+_A_EFF = (_MACC + M_EFF) * W
+_A_EFFC = (_MACC + M_EFFC) * W
+_A_CHAT = (_MACC + M_CHAT) * W
+_A_CHATC = (_MACC + M_CHATC) * W
+_A_PEAK = (_MACC + M_PEAK) * W
+_A_SSE = (_MACC + M_SSE) * W
+_A_FINAL = (_MACC + M_FINAL) * W
+_A_S_LAST = (_MACC + M_S_LAST) * W
+_A_S_XK = (_MACC + M_S_XK) * W
+_A_S_XK1 = (_MACC + M_S_XK1) * W
+_A_E_LAST = (_MACC + M_E_LAST) * W
+_A_E_XK = (_MACC + M_E_XK) * W
+_A_E_XK1 = (_MACC + M_E_XK1) * W
+_A_PAE = (_MACC + M_PAE) * W
+_A_PWE = (_MACC + M_PWE) * W
+_A_PTAU = (_MACC + M_PTAU) * W
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _sgn(x: float) -> float:
-    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+def workspace_size(n: int) -> int:
+    """Length of the flat workspace of a block of ``n``-joint runs."""
+    return J0 + n * JS
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _neumaier(acc: np.ndarray, row: int, j: int, ln: int, x: float) -> None:
-    """Add ``x`` to the compensated sum in rows ``row`` (sum), ``row + 1`` (compensation)."""
-    s = acc[row, j, ln]
+@njit(inline="always", **_OPT)
+def _neumaier(ws: np.ndarray, at: int, x: float) -> None:
+    """Add ``x`` to the compensated sum ``ws[at]`` (its compensation at ``ws[at + W]``)."""
+    s = ws[at]
     t = s + x
-    big = abs(s) >= abs(x)
-    acc[row + 1, j, ln] += ((s - t) + x) if big else ((x - t) + s)
-    acc[row, j, ln] = t
+    c1 = (s - t) + x
+    c2 = (x - t) + s
+    ws[at + W] += c1 if abs(s) >= abs(x) else c2
+    ws[at] = t
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _angles(ws: np.ndarray, lv: np.ndarray, src: int, rc: int, rs: int, n: int) -> None:
-    """Cosines and sines of the absolute angles of ``ws[src]`` into rows ``rc``, ``rs``
-    (:func:`slidingarm.models._kernels.angles_into` per lane)."""
+@njit(**_OPT)
+def _angles_law(ws: np.ndarray, n: int) -> None:
+    """Cosines and sines of the absolute angles of the measurement ``_QM`` into ``_LC``,
+    ``_LS`` (:func:`slidingarm.models._kernels.angles_into` per lane)."""
     for ln in range(W):
-        lv[_L_PHI, ln] = 0.0
+        ws[_L_PHI + ln] = 0.0
     for i in range(n):
+        o = J0 + i * JS
         for ln in range(W):
-            lv[_L_PHI, ln] += ws[src, i, ln]
+            ws[_L_PHI + ln] += ws[o + _QM + ln]
         for ln in range(W):
-            ws[rc, i, ln] = cos(lv[_L_PHI, ln])
+            ws[o + _LC + ln] = cos(ws[_L_PHI + ln])
         for ln in range(W):
-            ws[rs, i, ln] = sin(lv[_L_PHI, ln])
+            ws[o + _LS + ln] = sin(ws[_L_PHI + ln])
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _rnea(arm: np.ndarray, g: np.ndarray, ws: np.ndarray, lv: np.ndarray, n: int) -> None:
-    """Planar RNEA per lane (:func:`slidingarm.models._kernels._rnea_from_angles` with
-    ``qdd_scale = 1``): ``tau = M(qm) acc + h(qm, qdm)`` into row ``_TAU``, from the angles in
-    rows ``_LC``, ``_LS``."""
+@njit(**_OPT)
+def _angles_state(ws: np.ndarray, n: int) -> None:
+    """Angles of the state ``_Q`` into the RK4 base rows ``_BC``, ``_BS``."""
     for ln in range(W):
-        lv[_L_W, ln] = 0.0
-        lv[_L_WD, ln] = 0.0
-        lv[_L_AX, ln] = 0.0
-        lv[_L_AY, ln] = g[ln]
+        ws[_L_PHI + ln] = 0.0
     for i in range(n):
+        o = J0 + i * JS
         for ln in range(W):
-            w = lv[_L_W, ln] + ws[_QDM, i, ln]
-            wd = lv[_L_WD, ln] + ws[_ACC, i, ln]
-            c = arm[2, i, ln]
-            l_i = arm[1, i, ln]
-            cphi = ws[_LC, i, ln]
-            sphi = ws[_LS, i, ln]
-            ax = lv[_L_AX, ln]
-            ay = lv[_L_AY, ln]
-            ws[_R2, i, ln] = ax + wd * (-c * sphi) - w * w * c * cphi
-            ws[_R3, i, ln] = ay + wd * (c * cphi) - w * w * c * sphi
-            ws[_R4, i, ln] = wd
-            lv[_L_AX, ln] = ax + wd * (-l_i * sphi) - w * w * l_i * cphi
-            lv[_L_AY, ln] = ay + wd * (l_i * cphi) - w * w * l_i * sphi
-            lv[_L_W, ln] = w
-            lv[_L_WD, ln] = wd
+            ws[_L_PHI + ln] += ws[o + _Q + ln]
+        for ln in range(W):
+            ws[o + _BC + ln] = cos(ws[_L_PHI + ln])
+        for ln in range(W):
+            ws[o + _BS + ln] = sin(ws[_L_PHI + ln])
+
+
+@njit(**_OPT)
+def _angles_stage(ws: np.ndarray, n: int) -> None:
+    """Angles of a stage's position ``_QT`` into ``_DC``, ``_DS``."""
     for ln in range(W):
-        lv[_L_FX, ln] = 0.0
-        lv[_L_FY, ln] = 0.0
-        lv[_L_MOM, ln] = 0.0
+        ws[_L_PHI + ln] = 0.0
+    for i in range(n):
+        o = J0 + i * JS
+        for ln in range(W):
+            ws[_L_PHI + ln] += ws[o + _QT + ln]
+        for ln in range(W):
+            ws[o + _DC + ln] = cos(ws[_L_PHI + ln])
+        for ln in range(W):
+            ws[o + _DS + ln] = sin(ws[_L_PHI + ln])
+
+
+@njit(**_OPT)
+def _rnea(ws: np.ndarray, n: int) -> None:
+    """Planar RNEA of the nominal model per lane
+    (:func:`slidingarm.models._kernels._rnea_from_angles`, ``qdd_scale = 1``): ``tau =
+    M(q_m) acc + h(q_m, qd_m)`` into ``_TAU``, from the angles in ``_LC``, ``_LS``."""
+    for ln in range(W):
+        ws[_L_W + ln] = 0.0
+        ws[_L_WD + ln] = 0.0
+        ws[_L_AX + ln] = 0.0
+        ws[_L_AY + ln] = ws[_L_MG + ln]
+    for i in range(n):
+        o = J0 + i * JS
+        for ln in range(W):
+            w = ws[_L_W + ln] + ws[o + _QDM + ln]
+            wd = ws[_L_WD + ln] + ws[o + _ACC + ln]
+            c = ws[o + _MC + ln]
+            l_i = ws[o + _ML + ln]
+            cphi = ws[o + _LC + ln]
+            sphi = ws[o + _LS + ln]
+            ax = ws[_L_AX + ln]
+            ay = ws[_L_AY + ln]
+            ws[o + _R2 + ln] = ax + wd * (-c * sphi) - w * w * c * cphi
+            ws[o + _R3 + ln] = ay + wd * (c * cphi) - w * w * c * sphi
+            ws[o + _R4 + ln] = wd
+            ws[_L_AX + ln] = ax + wd * (-l_i * sphi) - w * w * l_i * cphi
+            ws[_L_AY + ln] = ay + wd * (l_i * cphi) - w * w * l_i * sphi
+            ws[_L_W + ln] = w
+            ws[_L_WD + ln] = wd
+    for ln in range(W):
+        ws[_L_FX + ln] = 0.0
+        ws[_L_FY + ln] = 0.0
+        ws[_L_MOM + ln] = 0.0
     for i in range(n - 1, -1, -1):
+        o = J0 + i * JS
         for ln in range(W):
-            m = arm[0, i, ln]
-            c = arm[2, i, ln]
-            l_i = arm[1, i, ln]
-            cphi = ws[_LC, i, ln]
-            sphi = ws[_LS, i, ln]
-            gx = m * ws[_R2, i, ln]
-            gy = m * ws[_R3, i, ln]
-            fx = lv[_L_FX, ln]
-            fy = lv[_L_FY, ln]
+            m = ws[o + _MM + ln]
+            c = ws[o + _MC + ln]
+            l_i = ws[o + _ML + ln]
+            cphi = ws[o + _LC + ln]
+            sphi = ws[o + _LS + ln]
+            gx = m * ws[o + _R2 + ln]
+            gy = m * ws[o + _R3 + ln]
+            fx = ws[_L_FX + ln]
+            fy = ws[_L_FY + ln]
             mom = (
-                arm[3, i, ln] * ws[_R4, i, ln]
+                ws[o + _MI + ln] * ws[o + _R4 + ln]
                 + c * (cphi * gy - sphi * gx)
                 + l_i * (cphi * fy - sphi * fx)
-                + lv[_L_MOM, ln]
+                + ws[_L_MOM + ln]
             )
-            lv[_L_FX, ln] = fx + gx
-            lv[_L_FY, ln] = fy + gy
-            lv[_L_MOM, ln] = mom
-            ws[_TAU, i, ln] = mom
+            ws[_L_FX + ln] = fx + gx
+            ws[_L_FY + ln] = fy + gy
+            ws[_L_MOM + ln] = mom
+            ws[o + _TAU + ln] = mom
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _aba(
-    arm: np.ndarray, g: np.ndarray, ws: np.ndarray, lv: np.ndarray, n: int, kout: int
-) -> None:
-    """Planar ABA per lane (:func:`slidingarm.models._kernels.aba_from_angles_into`): the
-    acceleration at velocity row ``_VT`` and input row ``_TAPP`` into row ``kout``, from the
-    angles in rows ``_AC``, ``_AS``; a pivot that is not positive clears ``lv[_L_OK]``."""
-    A2 = _A2
-    A3 = _A2 + 1
-    A4 = _A2 + 2
-    A5 = _A2 + 3
-    A6 = _A2 + 4
+@njit(**_OPT)
+def _aba(ws: np.ndarray, n: int) -> None:
+    """Planar ABA of the plant per lane
+    (:func:`slidingarm.models._kernels.aba_from_angles_into`): the acceleration at velocity
+    ``_VT``, input ``_TAPP`` and the angles in ``_AC``, ``_AS`` into ``_KX``; a pivot that
+    is not positive clears ``_L_OK``."""
     for ln in range(W):
-        lv[_L_W, ln] = 0.0
-        lv[_L_T, ln] = 0.0  # vx
-        lv[_L_T + 1, ln] = 0.0  # vy
+        ws[_L_W + ln] = 0.0
+        ws[_L_T0 + ln] = 0.0
+        ws[_L_T1 + ln] = 0.0
     for i in range(n):
+        o = J0 + i * JS
         for ln in range(W):
-            w = lv[_L_W, ln] + ws[_VT, i, ln]
-            vx = lv[_L_T, ln]
-            vy = lv[_L_T + 1, ln]
-            ws[A2, i, ln] = w
-            ws[A3, i, ln] = vx
-            ws[A4, i, ln] = vy
-            lv[_L_T, ln] = vx - w * arm[1, i, ln] * ws[_AS, i, ln]
-            lv[_L_T + 1, ln] = vy + w * arm[1, i, ln] * ws[_AC, i, ln]
-            lv[_L_W, ln] = w
-    # child's articulated inertia ca..cf (rows _L_T .. _L_T+5), bias p0..p2 (_L_T+6 ..)
+            w = ws[_L_W + ln] + ws[o + _VT + ln]
+            vx = ws[_L_T0 + ln]
+            vy = ws[_L_T1 + ln]
+            ws[o + _A2 + ln] = w
+            ws[o + _A3 + ln] = vx
+            ws[o + _A4 + ln] = vy
+            ws[_L_T0 + ln] = vx - w * ws[o + _PL + ln] * ws[o + _AS + ln]
+            ws[_L_T1 + ln] = vy + w * ws[o + _PL + ln] * ws[o + _AC + ln]
+            ws[_L_W + ln] = w
+    # the child's articulated inertia ca..cf in T0..T5 and bias force p0..p2 in T6..T8
     for ln in range(W):
-        for r in range(9):
-            lv[_L_T + r, ln] = 0.0
+        ws[_L_T0 + ln] = 0.0
+        ws[_L_T1 + ln] = 0.0
+        ws[_L_T2 + ln] = 0.0
+        ws[_L_T3 + ln] = 0.0
+        ws[_L_T4 + ln] = 0.0
+        ws[_L_T5 + ln] = 0.0
+        ws[_L_T6 + ln] = 0.0
+        ws[_L_T7 + ln] = 0.0
+        ws[_L_T8 + ln] = 0.0
     for i in range(n - 1, -1, -1):
+        o = J0 + i * JS
         for ln in range(W):
-            ca = lv[_L_T, ln]
-            cb = lv[_L_T + 1, ln]
-            cc = lv[_L_T + 2, ln]
-            cd = lv[_L_T + 3, ln]
-            ce = lv[_L_T + 4, ln]
-            cf = lv[_L_T + 5, ln]
-            p0 = lv[_L_T + 6, ln]
-            p1 = lv[_L_T + 7, ln]
-            p2 = lv[_L_T + 8, ln]
-            m = arm[0, i, ln]
-            c = arm[2, i, ln]
-            wi = ws[A2, i, ln]
-            vxi = ws[A3, i, ln]
-            vyi = ws[A4, i, ln]
-            ia = arm[3, i, ln] + m * c * c
-            ib = -m * c * ws[_AS, i, ln]
-            ic = m * c * ws[_AC, i, ln]
+            ca = ws[_L_T0 + ln]
+            cb = ws[_L_T1 + ln]
+            cc = ws[_L_T2 + ln]
+            cd = ws[_L_T3 + ln]
+            ce = ws[_L_T4 + ln]
+            cf = ws[_L_T5 + ln]
+            p0 = ws[_L_T6 + ln]
+            p1 = ws[_L_T7 + ln]
+            p2 = ws[_L_T8 + ln]
+            m = ws[o + _PM + ln]
+            c = ws[o + _PC + ln]
+            wi = ws[o + _A2 + ln]
+            vxi = ws[o + _A3 + ln]
+            vyi = ws[o + _A4 + ln]
+            ia = ws[o + _PI + ln] + m * c * c
+            ib = -m * c * ws[o + _AS + ln]
+            ic = m * c * ws[o + _AC + ln]
             fx = ib * wi + m * vxi
             fy = ic * wi + m * vyi
             d = ia + ca
@@ -290,18 +413,19 @@ def _aba(
             pa0 = vxi * fy - vyi * fx + p0
             pa1 = -wi * fy + p1
             pa2 = wi * fx + p2
-            lv[_L_OK, ln] = lv[_L_OK, ln] if d > 0.0 else 0.0
+            ok = ws[_L_OK + ln]
+            ws[_L_OK + ln] = ok if d > 0.0 else 0.0
             dinv = 1.0 / d
-            u = ws[_TAPP, i, ln] - pa0
-            ws[kout, i, ln] = u
-            qdi = ws[_VT, i, ln]
+            u = ws[o + _TAPP + ln] - pa0
+            ws[o + _KX + ln] = u
+            qdi = ws[o + _VT + ln]
             cvx = vyi * qdi
             cvy = -vxi * qdi
-            ws[A2, i, ln] = dinv
-            ws[A3, i, ln] = cvx
-            ws[A4, i, ln] = cvy
-            ws[A5, i, ln] = ib
-            ws[A6, i, ln] = ic
+            ws[o + _A2 + ln] = dinv
+            ws[o + _A3 + ln] = cvx
+            ws[o + _A4 + ln] = cvy
+            ws[o + _A5 + ln] = ib
+            ws[o + _A6 + ln] = ic
             if i > 0:
                 bd = ib * dinv
                 cdv = ic * dinv
@@ -311,37 +435,42 @@ def _aba(
                 ud = u * dinv
                 pa1 += dd * cvx + de * cvy + ib * ud
                 pa2 += de * cvx + df * cvy + ic * ud
-                rx = arm[1, i - 1, ln] * ws[_AC, i - 1, ln]
-                ry = arm[1, i - 1, ln] * ws[_AS, i - 1, ln]
+                rx = ws[o - JS + _PL + ln] * ws[o - JS + _AC + ln]
+                ry = ws[o - JS + _PL + ln] * ws[o - JS + _AS + ln]
                 cb = rx * de - ry * dd
                 cc = rx * df - ry * de
-                lv[_L_T, ln] = rx * cc - ry * cb
-                lv[_L_T + 1, ln] = cb
-                lv[_L_T + 2, ln] = cc
-                lv[_L_T + 3, ln] = dd
-                lv[_L_T + 4, ln] = de
-                lv[_L_T + 5, ln] = df
-                lv[_L_T + 6, ln] = ws[_TAPP, i, ln] + rx * pa2 - ry * pa1
-                lv[_L_T + 7, ln] = pa1
-                lv[_L_T + 8, ln] = pa2
-    # pass 3: alpha (_L_T), ax (_L_T+1), ay (_L_T+2)
+                ws[_L_T0 + ln] = rx * cc - ry * cb
+                ws[_L_T1 + ln] = cb
+                ws[_L_T2 + ln] = cc
+                ws[_L_T3 + ln] = dd
+                ws[_L_T4 + ln] = de
+                ws[_L_T5 + ln] = df
+                ws[_L_T6 + ln] = ws[o + _TAPP + ln] + rx * pa2 - ry * pa1
+                ws[_L_T7 + ln] = pa1
+                ws[_L_T8 + ln] = pa2
+    # pass 3, base to tip: alpha in T0, ax in T1, ay in T2
     for ln in range(W):
-        lv[_L_T, ln] = 0.0
-        lv[_L_T + 1, ln] = 0.0
-        lv[_L_T + 2, ln] = g[ln]
-    for i in range(n):
+        ws[_L_T0 + ln] = 0.0
+        ws[_L_T1 + ln] = 0.0
+        ws[_L_T2 + ln] = ws[_L_G + ln]
+    for ln in range(W):
+        o = J0
+        alpha_i = (
+            ws[o + _KX + ln] - ws[o + _A5 + ln] * ws[_L_T1 + ln] - ws[o + _A6 + ln] * ws[_L_T2 + ln]
+        ) * ws[o + _A2 + ln]
+        ws[o + _KX + ln] = alpha_i - ws[_L_T0 + ln]
+        ws[_L_T0 + ln] = alpha_i
+    for i in range(1, n):
+        o = J0 + i * JS
         for ln in range(W):
-            alpha = lv[_L_T, ln]
-            ax = lv[_L_T + 1, ln]
-            ay = lv[_L_T + 2, ln]
-            if i > 0:
-                ax += ws[A3, i, ln] - alpha * arm[1, i - 1, ln] * ws[_AS, i - 1, ln]
-                ay += ws[A4, i, ln] + alpha * arm[1, i - 1, ln] * ws[_AC, i - 1, ln]
-            alpha_i = (ws[kout, i, ln] - ws[A5, i, ln] * ax - ws[A6, i, ln] * ay) * ws[A2, i, ln]
-            ws[kout, i, ln] = alpha_i - alpha
-            lv[_L_T, ln] = alpha_i
-            lv[_L_T + 1, ln] = ax
-            lv[_L_T + 2, ln] = ay
+            alpha = ws[_L_T0 + ln]
+            ax = ws[_L_T1 + ln] + (ws[o + _A3 + ln] - alpha * ws[o - JS + _PL + ln] * ws[o - JS + _AS + ln])
+            ay = ws[_L_T2 + ln] + (ws[o + _A4 + ln] + alpha * ws[o - JS + _PL + ln] * ws[o - JS + _AC + ln])
+            alpha_i = (ws[o + _KX + ln] - ws[o + _A5 + ln] * ax - ws[o + _A6 + ln] * ay) * ws[o + _A2 + ln]
+            ws[o + _KX + ln] = alpha_i - alpha
+            ws[_L_T0 + ln] = alpha_i
+            ws[_L_T1 + ln] = ax
+            ws[_L_T2 + ln] = ay
 
 
 _R6 = 1.0 / 6.0
@@ -352,92 +481,385 @@ _R42 = 1.0 / 42.0
 _R56 = 1.0 / 56.0
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _stage_angles(ws: np.ndarray, lv: np.ndarray, n: int) -> None:
-    """Angles of row ``_QT`` into ``_AC``, ``_AS``: the base angles rotated by the summed
-    steps ``_DQ`` (:func:`slidingarm.models._kernels.shifted_angles_into` per lane); where a
-    lane's summed step exceeds ``2**-5`` its sines and cosines are computed directly."""
+@njit(**_OPT)
+def _stage_angles(ws: np.ndarray, n: int) -> None:
+    """Angles of the stage position ``_QT`` into ``_AC``, ``_AS``: the base angles rotated by
+    the summed steps ``_DQ`` (:func:`slidingarm.models._kernels.shifted_angles_into` per
+    lane); a lane whose summed step exceeds ``2**-5`` takes the direct sines and cosines."""
+    for ln in range(W):
+        ws[_L_DELTA + ln] = 0.0
+        ws[_L_FAR + ln] = 0.0
+    for i in range(n):
+        o = J0 + i * JS
+        for ln in range(W):
+            delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
+            ws[_L_DELTA + ln] = delta
+            far = ws[_L_FAR + ln]
+            ws[_L_FAR + ln] = far if abs(delta) <= 0.03125 else 1.0
     anyfar = False
     for ln in range(W):
-        lv[_L_DELTA, ln] = 0.0
-        lv[_L_FAR, ln] = 0.0
-    for i in range(n):
-        for ln in range(W):
-            delta = lv[_L_DELTA, ln] + ws[_DQ, i, ln]
-            lv[_L_DELTA, ln] = delta
-            lv[_L_FAR, ln] = lv[_L_FAR, ln] if abs(delta) <= 0.03125 else 1.0
-    for ln in range(W):
-        anyfar |= lv[_L_FAR, ln] != 0.0
+        anyfar |= ws[_L_FAR + ln] != 0.0
     if anyfar:
-        _angles(ws, lv, _QT, _DC, _DS, n)
+        _angles_stage(ws, n)
     for ln in range(W):
-        lv[_L_DELTA, ln] = 0.0
+        ws[_L_DELTA + ln] = 0.0
     for i in range(n):
+        o = J0 + i * JS
         for ln in range(W):
-            delta = lv[_L_DELTA, ln] + ws[_DQ, i, ln]
-            lv[_L_DELTA, ln] = delta
-            c = ws[_BC, i, ln]
-            s = ws[_BS, i, ln]
+            delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
+            ws[_L_DELTA + ln] = delta
+            c = ws[o + _BC + ln]
+            s = ws[o + _BS + ln]
             d2 = delta * delta
             sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
             cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
-            ws[_AC, i, ln] = c + (c * cos_m1 - s * sin_d)
-            ws[_AS, i, ln] = s + (s * cos_m1 + c * sin_d)
+            ws[o + _AC + ln] = c + (c * cos_m1 - s * sin_d)
+            ws[o + _AS + ln] = s + (s * cos_m1 + c * sin_d)
         if anyfar:
             for ln in range(W):
-                far = lv[_L_FAR, ln] != 0.0
-                ws[_AC, i, ln] = ws[_DC, i, ln] if far else ws[_AC, i, ln]
-                ws[_AS, i, ln] = ws[_DS, i, ln] if far else ws[_AS, i, ln]
+                far = ws[_L_FAR + ln] != 0.0
+                rc = ws[o + _AC + ln]
+                rs = ws[o + _AS + ln]
+                dc = ws[o + _DC + ln]
+                ds = ws[o + _DS + ln]
+                ws[o + _AC + ln] = dc if far else rc
+                ws[o + _AS + ln] = ds if far else rs
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _rk4(
-    arm: np.ndarray, g: np.ndarray, ws: np.ndarray, lv: np.ndarray, n: int, h: float,
-    known: bool,
-) -> None:  # fmt: skip
+@njit(inline="always", **_OPT)
+def _stage(ws: np.ndarray, n: int, c: float, h: float, first: bool, kprev: int, kprev2: int) -> None:
+    """Stage input of RK4 (:func:`slidingarm.models._kernels.rk4_step`): position ``q + c h
+    v`` into ``_QT`` (its step into ``_DQ``), velocity ``qd + c h k_prev`` into ``_VT``."""
+    for i in range(n):
+        o = J0 + i * JS
+        for ln in range(W):
+            qd = ws[o + _QD + ln]
+            v_alt = qd + 0.5 * h * ws[o + kprev2 + ln]
+            v_prev = qd if first else v_alt
+            dq = c * h * v_prev
+            ws[o + _DQ + ln] = dq
+            ws[o + _QT + ln] = ws[o + _Q + ln] + dq
+            ws[o + _VT + ln] = qd + c * h * ws[o + kprev + ln]
+
+
+@njit(inline="always", **_OPT)
+def _keep_stage(ws: np.ndarray, n: int, krow: int) -> None:
+    for i in range(n):
+        o = J0 + i * JS
+        for ln in range(W):
+            ws[o + krow + ln] = ws[o + _KX + ln]
+
+
+@njit(**_OPT)
+def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
     """One RK4 step of every lane (:func:`slidingarm.models._kernels.rk4_step`); ``known``:
-    rows ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
+    ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
+    for i in range(n):
+        o = J0 + i * JS
+        for ln in range(W):
+            ws[o + _VT + ln] = ws[o + _QD + ln]
     if known:
         for i in range(n):
+            o = J0 + i * JS
             for ln in range(W):
-                ws[_BC, i, ln] = ws[_LC, i, ln]
-                ws[_BS, i, ln] = ws[_LS, i, ln]
+                ws[o + _BC + ln] = ws[o + _LC + ln]
+                ws[o + _BS + ln] = ws[o + _LS + ln]
     else:
-        _angles(ws, lv, _Q, _BC, _BS, n)
+        _angles_state(ws, n)
     for i in range(n):
+        o = J0 + i * JS
         for ln in range(W):
-            ws[_AC, i, ln] = ws[_BC, i, ln]
-            ws[_AS, i, ln] = ws[_BS, i, ln]
-            ws[_VT, i, ln] = ws[_QD, i, ln]
-    for s in range(4):
-        if s > 0:
-            c = 1.0 if s == 3 else 0.5
-            for i in range(n):
-                for ln in range(W):
-                    qd = ws[_QD, i, ln]
-                    v_prev = qd if s == 1 else qd + 0.5 * h * ws[_K0 + s - 2, i, ln]
-                    dq = c * h * v_prev
-                    ws[_DQ, i, ln] = dq
-                    ws[_QT, i, ln] = ws[_Q, i, ln] + dq
-                    ws[_VT, i, ln] = qd + c * h * ws[_K0 + s - 1, i, ln]
-            _stage_angles(ws, lv, n)
-        _aba(arm, g, ws, lv, n, _K0 + s)
+            ws[o + _AC + ln] = ws[o + _BC + ln]
+            ws[o + _AS + ln] = ws[o + _BS + ln]
+    _aba(ws, n)
+    _keep_stage(ws, n, _K0)
+    _stage(ws, n, 0.5, h, True, _K0, _K0)
+    _stage_angles(ws, n)
+    _aba(ws, n)
+    _keep_stage(ws, n, _K1)
+    _stage(ws, n, 0.5, h, False, _K1, _K0)
+    _stage_angles(ws, n)
+    _aba(ws, n)
+    _keep_stage(ws, n, _K2)
+    _stage(ws, n, 1.0, h, False, _K2, _K1)
+    _stage_angles(ws, n)
+    _aba(ws, n)
     for i in range(n):
+        o = J0 + i * JS
         for ln in range(W):
-            qd = ws[_QD, i, ln]
-            k0 = ws[_K0, i, ln]
-            k1 = ws[_K0 + 1, i, ln]
-            k2 = ws[_K0 + 2, i, ln]
-            k3 = ws[_K0 + 3, i, ln]
+            qd = ws[o + _QD + ln]
+            k0 = ws[o + _K0 + ln]
+            k1 = ws[o + _K1 + ln]
+            k2 = ws[o + _K2 + ln]
+            k3 = ws[o + _KX + ln]
             v1 = qd
             v2 = qd + 0.5 * h * k0
             v3 = qd + 0.5 * h * k1
             v4 = qd + h * k2
-            ws[_Q, i, ln] += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
-            ws[_QD, i, ln] = qd + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3)
+            ws[o + _Q + ln] += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
+            ws[o + _QD + ln] = qd + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_OPT)
+def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, classic: bool,
+         dt: float, q_ref: np.ndarray, qd_ref: np.ndarray, qdd_ref: np.ndarray) -> None:  # fmt: skip
+    """The sliding-mode law with ``law = model`` per lane
+    (:func:`slidingarm.control._kernels.control_into`): ``s`` into ``_S``, the torque into
+    ``_TAU``, the angles of the measurement into ``_LC``, ``_LS``."""
+    for j in range(n):
+        o = J0 + j * JS
+        qr = q_ref[k, j]
+        qdr = qd_ref[k, j]
+        if fast_terminal:
+            for ln in range(W):
+                ws[o + _TMP + ln] = ws[o + _QM + ln] - qr
+            for ln in range(W):
+                ws[o + _TMP2 + ln] = pow_abs(ws[o + _TMP + ln], ws[o + _CFG + ln])
+            for ln in range(W):
+                ej = ws[o + _TMP + ln]
+                edj = ws[o + _QDM + ln] - qdr
+                alpha = ws[o + _CFA + ln]
+                beta = ws[o + _CFB + ln]
+                gamma = ws[o + _CFG + ln]
+                eps_e = ws[o + _CFE + ln]
+                pw = ws[o + _TMP2 + ln]
+                ae = abs(ej)
+                sg = 1.0 if ej > 0.0 else (-1.0 if ej < 0.0 else 0.0)
+                s0 = edj + alpha * ej
+                s1 = s0 + beta * pw * sg
+                g_far = alpha + beta * gamma * pw / ae
+                g_near = alpha + beta * gamma * ws[o + _EPSG + ln]
+                g1 = g_far if ae >= eps_e else g_near
+                terminal = beta != 0.0
+                s = s1 if terminal else s0
+                gain = g1 if terminal else alpha
+                ws[o + _S + ln] = s
+                ws[o + _NU + ln] = gain * edj
+        else:
+            for ln in range(W):
+                ws[o + _TMP + ln] = ws[o + _QDM + ln] - qdr
+            for ln in range(W):
+                ws[o + _TMP2 + ln] = pow_abs(ws[o + _TMP + ln], ws[o + _CFG + ln])
+            for ln in range(W):
+                ws[o + _TMP3 + ln] = pow_abs(ws[o + _TMP + ln], 2.0 - ws[o + _CFG + ln])
+            for ln in range(W):
+                ej = ws[o + _QM + ln] - qr
+                edj = ws[o + _TMP + ln]
+                sg = 1.0 if edj > 0.0 else (-1.0 if edj < 0.0 else 0.0)
+                beta = ws[o + _CFB + ln]
+                gamma = ws[o + _CFG + ln]
+                ws[o + _S + ln] = ej + ws[o + _TMP2 + ln] * sg / beta
+                ws[o + _NU + ln] = beta / gamma * ws[o + _TMP3 + ln] * sg
+    for j in range(n):
+        o = J0 + j * JS
+        if swcode == CK.SWITCH_TANH:
+            for ln in range(W):
+                ws[o + _TMP + ln] = tanh(ws[o + _S + ln] / ws[o + _CFW + ln])
+        else:
+            sign = swcode == CK.SWITCH_SIGN
+            for ln in range(W):
+                s = ws[o + _S + ln]
+                x = s / ws[o + _CFW + ln]
+                sat = 1.0 if x > 1.0 else (-1.0 if x < -1.0 else x)
+                sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+                ws[o + _TMP + ln] = sg if sign else sat
+        qddr = qdd_ref[k, j]
+        if classic:
+            for ln in range(W):
+                r = ws[o + _CFK + ln] * ws[o + _TMP + ln]
+                ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
+        else:
+            for ln in range(W):
+                s = ws[o + _S + ln]
+                sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+                r = ws[o + _CFK + ln] * math.sqrt(abs(s)) * sg + ws[o + _ST + ln]
+                ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
+                ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
+    _angles_law(ws, n)
+    _rnea(ws, n)
+
+
+@njit(**_OPT)
+def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bool) -> bool:
+    """Measurement (``_QM``, from the added and held rows ``_MADD``, ``_MHOLD``) and velocity
+    estimate (``_QDM``) per lane, as :func:`slidingarm._engine.control_sample`; whether every
+    lane's measurement equals its state."""
+    for j in range(n):
+        o = J0 + j * JS
+        for ln in range(W):
+            v = ws[o + _Q + ln] + ws[o + _MADD + ln]
+            held = ws[o + _QMP + ln]
+            hold = has_hold and k > 0 and ws[o + _MHOLD + ln] != 0.0
+            ws[o + _QM + ln] = held if hold else v
+    if vcode == E.VEL_TRUE or k == 0:
+        for j in range(n):
+            o = J0 + j * JS
+            for ln in range(W):
+                ws[o + _QDM + ln] = ws[o + _QD + ln]
+            if vcode != E.VEL_TRUE:
+                for ln in range(W):
+                    ws[o + _Z0 + ln] = ws[o + _QM + ln]
+    elif vcode == E.VEL_DIFFERENCE:
+        for j in range(n):
+            o = J0 + j * JS
+            for ln in range(W):
+                ws[o + _QDM + ln] = (ws[o + _QM + ln] - ws[o + _QMP + ln]) / dt
+    elif vcode == E.VEL_FILTERED:
+        for j in range(n):
+            o = J0 + j * JS
+            for ln in range(W):
+                tf = ws[o + _VF0 + E.VF_TIME_CONSTANT * W + ln]
+                ws[o + _QDM + ln] = (tf * ws[o + _QDM + ln] + (ws[o + _QM + ln] - ws[o + _QMP + ln])) / (tf + dt)
+    else:
+        for j in range(n):
+            o = J0 + j * JS
+            for ln in range(W):
+                lip = ws[o + _VF0 + E.VF_LIPSCHITZ * W + ln]
+                sigma = ws[o + _Z0 + ln] - ws[o + _QM + ln]
+                sg = 1.0 if sigma > 0.0 else (-1.0 if sigma < 0.0 else 0.0)
+                qdm = ws[o + _QDM + ln]
+                ws[o + _Z0 + ln] += dt * (
+                    -ws[o + _VF0 + E.VF_LAMBDA1 * W + ln] * math.sqrt(lip * abs(sigma)) * sg + qdm
+                )
+                ws[o + _QDM + ln] = qdm + dt * (-ws[o + _VF0 + E.VF_LAMBDA0 * W + ln] * lip * sg)
+    exact = True
+    for j in range(n):
+        o = J0 + j * JS
+        for ln in range(W):
+            ws[o + _QMP + ln] = ws[o + _QM + ln]
+            exact &= ws[o + _QM + ln] == ws[o + _Q + ln]
+    return exact
+
+
+@njit(**_OPT)
+def _clip(ws: np.ndarray, n: int) -> None:
+    """Torque limits, the held input ``tau + d`` (``_DIST``), and in ``_L_BAD`` the first
+    joint whose torque or ``s`` is not finite (-1: none), per lane."""
+    for ln in range(W):
+        ws[_L_BAD + ln] = -1.0
+    for j in range(n):
+        o = J0 + j * JS
+        for ln in range(W):
+            t_j = ws[o + _TAU + ln]
+            lim = ws[o + _TMAX + ln]
+            nlim = -lim
+            t_c = lim if t_j > lim else (nlim if t_j < nlim else t_j)
+            ws[o + _TAU + ln] = t_c
+            ws[o + _TAPP + ln] = t_c + ws[o + _DIST + ln]
+            fin = math.isfinite(t_c) and math.isfinite(ws[o + _S + ln])
+            bad = ws[_L_BAD + ln]
+            ws[_L_BAD + ln] = float(j) if (bad < 0.0 and not fin) else bad
+
+
+@njit(**_OPT)
+def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
+    """:func:`slidingarm._engine.check_state` per lane into ``_L_CODE``, ``_L_JOINT``."""
+    for ln in range(W):
+        ws[_L_CODE + ln] = E.STATUS_OK
+        ws[_L_JOINT + ln] = -1.0
+    for j in range(n):
+        o = J0 + j * JS
+        for ln in range(W):
+            fin = math.isfinite(ws[o + _Q + ln]) and math.isfinite(ws[o + _QD + ln])
+            code = ws[_L_CODE + ln]
+            first = code == E.STATUS_OK and not fin
+            ws[_L_CODE + ln] = E.STATUS_NONFINITE if first else code
+            joint = ws[_L_JOINT + ln]
+            ws[_L_JOINT + ln] = float(j) if first else joint
+    for ln in range(W):
+        code = ws[_L_CODE + ln]
+        sing = code == E.STATUS_OK and ws[_L_OK + ln] == 0.0
+        ws[_L_CODE + ln] = E.STATUS_SINGULAR if sing else code
+        joint = ws[_L_JOINT + ln]
+        ws[_L_JOINT + ln] = 0.0 if sing else joint
+    for j in range(n):
+        o = J0 + j * JS
+        for ln in range(W):
+            code = ws[_L_CODE + ln]
+            run = code == E.STATUS_OK and abs(ws[o + _QD + ln]) > qd_limit
+            ws[_L_CODE + ln] = E.STATUS_RUNAWAY if run else code
+            joint = ws[_L_JOINT + ln]
+            ws[_L_JOINT + ln] = float(j) if run else joint
+
+
+@njit(**_OPT)
+def _stream_metrics(ws: np.ndarray, n: int, tgrid: np.ndarray, q_ref: np.ndarray, k: int,
+                    delta_s: float, delta_e: float, start: int) -> None:  # fmt: skip
+    """Sample ``k``'s part of every streamed metric (see :func:`finish_metrics`)."""
+    nt = tgrid.shape[0]
+    wt = tgrid[k] - tgrid[0]
+    dtk = tgrid[k] - tgrid[k - 1] if k > 0 else 0.0
+    dtn = tgrid[k + 1] - tgrid[k] if k < nt - 1 else 0.0
+    fk = float(k)
+    for j in range(n):
+        o = J0 + j * JS
+        qr = q_ref[k, j]
+        for ln in range(W):
+            e = ws[o + _Q + ln] - qr
+            ae = abs(e)
+            _neumaier(ws, o + _A_SE2 + ln, e * e)
+            ws[o + _A_FINAL + ln] = e
+            # last sample outside the band, the value there and at the next sample
+            s = ws[o + _S + ln]
+            so = abs(s) > delta_s
+            last = ws[o + _A_S_LAST + ln]
+            x1 = ws[o + _A_S_XK1 + ln]
+            x1 = s if fk == last + 1.0 else x1
+            ws[o + _A_S_XK1 + ln] = s if so else x1
+            ws[o + _A_S_LAST + ln] = fk if so else last
+            xk = ws[o + _A_S_XK + ln]
+            ws[o + _A_S_XK + ln] = s if so else xk
+            eo = ae > delta_e
+            last = ws[o + _A_E_LAST + ln]
+            x1 = ws[o + _A_E_XK1 + ln]
+            x1 = e if fk == last + 1.0 else x1
+            ws[o + _A_E_XK1 + ln] = e if eo else x1
+            ws[o + _A_E_LAST + ln] = fk if eo else last
+            xk = ws[o + _A_E_XK + ln]
+            ws[o + _A_E_XK + ln] = e if eo else xk
+        if k > 0:
+            for ln in range(W):
+                ae = abs(ws[o + _Q + ln] - qr)
+                _neumaier(ws, o + _A_IAE + ln, (ae + ws[o + _A_PAE + ln]) * dtk)
+                _neumaier(ws, o + _A_ITAE + ln, (wt * ae + ws[o + _A_PWE + ln]) * dtk)
+        for ln in range(W):
+            ae = abs(ws[o + _Q + ln] - qr)
+            ws[o + _A_PAE + ln] = ae
+            ws[o + _A_PWE + ln] = wt * ae
+        if k < nt - 1:
+            for ln in range(W):
+                tau = ws[o + _TAU + ln]
+                _neumaier(ws, o + _A_EFF + ln, tau * tau * dtn)
+                ws[o + _A_PEAK + ln] = max(ws[o + _A_PEAK + ln], abs(tau))
+            if k > 0:
+                for ln in range(W):
+                    tau = ws[o + _TAU + ln]
+                    _neumaier(ws, o + _A_CHAT + ln, abs(tau - ws[o + _A_PTAU + ln]))
+            for ln in range(W):
+                ws[o + _A_PTAU + ln] = ws[o + _TAU + ln]
+        if k >= start:
+            for ln in range(W):
+                ws[o + _A_SSE + ln] = max(ws[o + _A_SSE + ln], abs(ws[o + _Q + ln] - qr))
+
+
+@njit(**_OPT)
+def _reset_lane(ws: np.ndarray, n: int, ln: int) -> None:
+    """A failed lane restarts from its initial state: finite values, which cost what a live
+    lane's cost; nothing it computes is written any more."""
+    for j in range(n):
+        o = J0 + j * JS
+        q0 = ws[o + _Q0 + ln]
+        qd0 = ws[o + _QD0 + ln]
+        ws[o + _Q + ln] = q0
+        ws[o + _QD + ln] = qd0
+        ws[o + _QM + ln] = q0
+        ws[o + _QMP + ln] = q0
+        ws[o + _QDM + ln] = qd0
+        ws[o + _Z0 + ln] = q0
+        ws[o + _ST + ln] = 0.0
+
+
+@njit(**_OPT)
 def run_block(
     lanes: np.ndarray,
     local: np.ndarray,
@@ -477,339 +899,171 @@ def run_block(
 ) -> None:
     """``W`` closed-loop runs of planar plants ``pp`` (4, n, W) (gravity ``pg`` (W,)) under
     the sliding-mode law with codes ``codes`` (``CK.NCI``,) and table ``cf`` (``CK.NCF``, n,
-    W), nominal models ``mp``, ``mg``; see the module docstring.
+    W), nominal models ``mp`` (4, n, W), ``mg`` (W,); see the module docstring. ``q0, qd0,
+    tmax`` are (n, W), ``vfb`` (NVF, n, W).
 
     Lane ``ln`` is run ``lanes[ln]`` of the batch: it writes its recorded samples (every
     ``stride``-th; none if ``stride == 0``) to ``q_b[lanes[ln], k // stride]`` etc. (arrays
     ``(B, K, n)``), its status to ``status[lanes[ln]]`` and, if ``metrics``, its metric
     accumulators to ``acc[local[ln]]`` ((C, NACC, n)) and its torque to
-    ``tau_trace[local[ln]]`` ((C, T, n)), ``local`` indexing the caller's chunk of runs. Two lanes may be the same run (a padded block): they
-    compute and write the same values. ``madd``, ``mhold``, ``dist`` are ``(T, n, W)``, or
-    ``(0, n, W)`` when no lane has any (then the measurement is ``q + 0.0``, the input ``tau +
-    0.0``, as the scalar loop computes with its zero arrays). ``bands`` is ``(delta_s, delta_e,
-    start)``: the metrics' bands and the first sample of the steady-state window.
+    ``tau_trace[local[ln]]`` ((C, T, n)), ``local`` indexing the caller's chunk of runs. Two
+    lanes may be the same run (a padded block): they compute and write the same values.
+    ``madd``, ``mhold``, ``dist`` are ``(T, n, W)``, or ``(0, n, W)`` when no lane has any
+    (then the measurement is ``q + 0.0`` and the input ``tau + 0.0``, as the scalar loop
+    computes them with its zero arrays). ``bands`` is ``(delta_s, delta_e, start)``: the
+    metrics' bands and the first sample of the steady-state window.
     """
-    q_ref = E._borrow(q_ref)
-    qd_ref = E._borrow(qd_ref)
-    qdd_ref = E._borrow(qdd_ref)
-    madd = E._borrow(madd)
-    mhold = E._borrow(mhold)
-    dist = E._borrow(dist)
-    pp = E._borrow(pp)
-    mp = E._borrow(mp)
-    cf = E._borrow(cf)
-    vfb = E._borrow(vfb)
-    tmax = E._borrow(tmax)
-    acc = E._borrow(acc)
-    tau_trace = E._borrow(tau_trace)
-    q_b = E._borrow(q_b)
-    qd_b = E._borrow(qd_b)
-    qm_b = E._borrow(qm_b)
-    qdm_b = E._borrow(qdm_b)
-    tau_b = E._borrow(tau_b)
-    s_b = E._borrow(s_b)
     nt = tgrid.shape[0]
     n = q0.shape[0]
     h = dt / substeps
     has_add = madd.shape[0] > 0
     has_hold = mhold.shape[0] > 0
     has_dist = dist.shape[0] > 0
-    wsa = np.zeros((WS_ROWS, n, W))
-    lva = np.zeros((_NLV, W))
-    acca = np.zeros((NACC, n, W))
+    wsa = np.zeros(J0 + n * JS)
     ws = E._borrow(wsa)
-    lv = E._borrow(lva)
-    ac = E._borrow(acca)
     fast_terminal = codes[CK.CI_SURFACE] == CK.SURFACE_FAST_TERMINAL
     swcode = codes[CK.CI_SWITCHING]
     classic = codes[CK.CI_REACHING] == CK.REACH_CLASSIC
     delta_s = bands[0]
     delta_e = bands[1]
     start = int(bands[2])
-    for j in range(n):
-        for ln in range(W):
-            ws[_Q, j, ln] = q0[j, ln]
-            ws[_QD, j, ln] = qd0[j, ln]
-            ws[_ST, j, ln] = 0.0
-            ws[_EPSG, j, ln] = cf[CK.CF_EPS_E, j, ln] ** (cf[CK.CF_GAMMA, j, ln] - 1.0)
-            ac[M_S_LAST, j, ln] = -1.0
-            ac[M_E_LAST, j, ln] = -1.0
     for ln in range(W):
-        lv[_L_ALIVE, ln] = 1.0
+        ws[_L_G + ln] = pg[ln]
+        ws[_L_MG + ln] = mg[ln]
+        ws[_L_ALIVE + ln] = 1.0
         status[lanes[ln], 0] = E.STATUS_OK
         status[lanes[ln], 1] = -1
         status[lanes[ln], 2] = -1
-    t0 = tgrid[0]
-    for k in range(nt):
-        # --- measurement
-        for j in range(n):
-            for ln in range(W):
-                add = madd[k, j, ln] if has_add else 0.0
-                v = ws[_Q, j, ln] + add
-                if has_hold:
-                    v = ws[_QMP, j, ln] if (k > 0 and mhold[k, j, ln]) else v
-                ws[_QM, j, ln] = v
-        # --- velocity estimate
-        if vcode == E.VEL_TRUE or k == 0:
-            for j in range(n):
-                for ln in range(W):
-                    ws[_QDM, j, ln] = ws[_QD, j, ln]
-                    if vcode != E.VEL_TRUE:
-                        ws[_Z0, j, ln] = ws[_QM, j, ln]
-        elif vcode == E.VEL_DIFFERENCE:
-            for j in range(n):
-                for ln in range(W):
-                    ws[_QDM, j, ln] = (ws[_QM, j, ln] - ws[_QMP, j, ln]) / dt
-        elif vcode == E.VEL_FILTERED:
-            for j in range(n):
-                for ln in range(W):
-                    tf = vfb[E.VF_TIME_CONSTANT, j, ln]
-                    ws[_QDM, j, ln] = (tf * ws[_QDM, j, ln] + (ws[_QM, j, ln] - ws[_QMP, j, ln])) / (
-                        tf + dt
-                    )
-        else:
-            for j in range(n):
-                for ln in range(W):
-                    lip = vfb[E.VF_LIPSCHITZ, j, ln]
-                    sigma = ws[_Z0, j, ln] - ws[_QM, j, ln]
-                    sg = _sgn(sigma)
-                    qdm = ws[_QDM, j, ln]
-                    ws[_Z0, j, ln] += dt * (
-                        -vfb[E.VF_LAMBDA1, j, ln] * math.sqrt(lip * abs(sigma)) * sg + qdm
-                    )
-                    ws[_QDM, j, ln] = qdm + dt * (-vfb[E.VF_LAMBDA0, j, ln] * lip * sg)
-        exact = True
-        for j in range(n):
-            for ln in range(W):
-                ws[_QMP, j, ln] = ws[_QM, j, ln]
-                exact &= ws[_QM, j, ln] == ws[_Q, j, ln]
-        # --- surface (s, nu) of every joint
-        for j in range(n):
-            qr = q_ref[k, j]
-            qdr = qd_ref[k, j]
-            if fast_terminal:
-                for ln in range(W):
-                    ws[_TMP, j, ln] = ws[_QM, j, ln] - qr
-                for ln in range(W):
-                    ws[_TMP2, j, ln] = pow_abs(ws[_TMP, j, ln], cf[CK.CF_GAMMA, j, ln])
-                for ln in range(W):
-                    ej = ws[_TMP, j, ln]
-                    edj = ws[_QDM, j, ln] - qdr
-                    alpha = cf[CK.CF_ALPHA, j, ln]
-                    beta = cf[CK.CF_BETA, j, ln]
-                    gamma = cf[CK.CF_GAMMA, j, ln]
-                    eps_e = cf[CK.CF_EPS_E, j, ln]
-                    pw = ws[_TMP2, j, ln]
-                    ae = abs(ej)
-                    s0 = edj + alpha * ej
-                    s1 = s0 + beta * pw * _sgn(ej)
-                    g_far = alpha + beta * gamma * pw / ae
-                    g_near = alpha + beta * gamma * ws[_EPSG, j, ln]
-                    g1 = g_far if ae >= eps_e else g_near
-                    s = s1 if beta != 0.0 else s0
-                    gain = g1 if beta != 0.0 else alpha
-                    ws[_S, j, ln] = s
-                    ws[_NU, j, ln] = gain * edj
-            else:
-                for ln in range(W):
-                    ws[_TMP, j, ln] = ws[_QDM, j, ln] - qdr
-                for ln in range(W):
-                    ws[_TMP2, j, ln] = pow_abs(ws[_TMP, j, ln], cf[CK.CF_GAMMA, j, ln])
-                for ln in range(W):
-                    ws[_TMP3, j, ln] = pow_abs(ws[_TMP, j, ln], 2.0 - cf[CK.CF_GAMMA, j, ln])
-                for ln in range(W):
-                    ej = ws[_QM, j, ln] - qr
-                    sg = _sgn(ws[_TMP, j, ln])
-                    beta = cf[CK.CF_BETA, j, ln]
-                    gamma = cf[CK.CF_GAMMA, j, ln]
-                    ws[_S, j, ln] = ej + ws[_TMP2, j, ln] * sg / beta
-                    ws[_NU, j, ln] = beta / gamma * ws[_TMP3, j, ln] * sg
-        # --- reaching term and commanded acceleration
-        for j in range(n):
-            if swcode == CK.SWITCH_TANH:
-                for ln in range(W):
-                    ws[_TMP, j, ln] = tanh(ws[_S, j, ln] / cf[CK.CF_WIDTH, j, ln])
-            else:
-                for ln in range(W):
-                    s = ws[_S, j, ln]
-                    x = s / cf[CK.CF_WIDTH, j, ln]
-                    sat = 1.0 if x > 1.0 else (-1.0 if x < -1.0 else x)
-                    ws[_TMP, j, ln] = _sgn(s) if swcode == CK.SWITCH_SIGN else sat
-            qddr = qdd_ref[k, j]
-            for ln in range(W):
-                s = ws[_S, j, ln]
-                phi = ws[_TMP, j, ln]
-                kk = cf[CK.CF_K, j, ln]
-                if classic:
-                    r = kk * phi
-                else:
-                    r = kk * math.sqrt(abs(s)) * _sgn(s) + ws[_ST, j, ln]
-                    ws[_ST, j, ln] += dt * cf[CK.CF_K2, j, ln] * phi
-                ws[_ACC, j, ln] = qddr - ws[_NU, j, ln] - r
-        # --- law = model: the nominal arm's inverse dynamics at the measured state
-        _angles(ws, lv, _QM, _LC, _LS, n)
-        _rnea(mp, mg, ws, lv, n)
-        # --- clip, hold, record, check
+    for j in range(n):
+        o = J0 + j * JS
         for ln in range(W):
-            lv[_L_BAD, ln] = -1.0
-        for j in range(n):
-            for ln in range(W):
-                t_j = ws[_TAU, j, ln]
-                lim = tmax[j, ln]
-                t_j = lim if t_j > lim else (-lim if t_j < -lim else t_j)
-                ws[_TAU, j, ln] = t_j
-                add = dist[k, j, ln] if has_dist else 0.0
-                ws[_TAPP, j, ln] = t_j + add
-                fin = math.isfinite(t_j) and math.isfinite(ws[_S, j, ln])
-                lv[_L_BAD, ln] = j if (lv[_L_BAD, ln] < 0.0 and not fin) else lv[_L_BAD, ln]
+            ws[o + _Q0 + ln] = q0[j, ln]
+            ws[o + _QD0 + ln] = qd0[j, ln]
+            ws[o + _Q + ln] = q0[j, ln]
+            ws[o + _QD + ln] = qd0[j, ln]
+            ws[o + _TMAX + ln] = tmax[j, ln]
+            for r in range(4):
+                ws[o + _PM + r * W + ln] = pp[r, j, ln]
+                ws[o + _MM + r * W + ln] = mp[r, j, ln]
+                ws[o + _VF0 + r * W + ln] = vfb[r, j, ln]
+            for r in range(CK.NCF):
+                ws[o + _CFA + r * W + ln] = cf[r, j, ln]
+            ws[o + _EPSG + ln] = cf[CK.CF_EPS_E, j, ln] ** (cf[CK.CF_GAMMA, j, ln] - 1.0)
+            ws[o + _A_S_LAST + ln] = -1.0
+            ws[o + _A_E_LAST + ln] = -1.0
+    for k in range(nt):
+        if has_add or has_hold or has_dist:
+            for j in range(n):
+                o = J0 + j * JS
+                for ln in range(W):
+                    if has_add:
+                        ws[o + _MADD + ln] = madd[k, j, ln]
+                    if has_hold:
+                        ws[o + _MHOLD + ln] = 1.0 if mhold[k, j, ln] else 0.0
+                    if has_dist:
+                        ws[o + _DIST + ln] = dist[k, j, ln]
+        exact = _measure(ws, n, k, vcode, dt, has_hold)
+        _law(ws, n, k, fast_terminal, swcode, classic, dt, q_ref, qd_ref, qdd_ref)
+        _clip(ws, n)
         if stride > 0 and k % stride == 0:
-            kk_ = k // stride
+            kk = k // stride
             for ln in range(W):
-                if lv[_L_ALIVE, ln] != 0.0:
+                if ws[_L_ALIVE + ln] != 0.0:
                     b = lanes[ln]
                     for j in range(n):
-                        q_b[b, kk_, j] = ws[_Q, j, ln]
-                        qd_b[b, kk_, j] = ws[_QD, j, ln]
-                        qm_b[b, kk_, j] = ws[_QM, j, ln]
-                        qdm_b[b, kk_, j] = ws[_QDM, j, ln]
-                        tau_b[b, kk_, j] = ws[_TAU, j, ln]
-                        s_b[b, kk_, j] = ws[_S, j, ln]
+                        o = J0 + j * JS + ln
+                        q_b[b, kk, j] = ws[o + _Q]
+                        qd_b[b, kk, j] = ws[o + _QD]
+                        qm_b[b, kk, j] = ws[o + _QM]
+                        qdm_b[b, kk, j] = ws[o + _QDM]
+                        tau_b[b, kk, j] = ws[o + _TAU]
+                        s_b[b, kk, j] = ws[o + _S]
         if metrics:
-            _stream_metrics(ac, ws, tgrid, q_ref, k, nt, n, t0, delta_s, delta_e, start)
+            _stream_metrics(ws, n, tgrid, q_ref, k, delta_s, delta_e, start)
             for ln in range(W):
-                if lv[_L_ALIVE, ln] != 0.0:
+                if ws[_L_ALIVE + ln] != 0.0:
                     b = local[ln]
                     for j in range(n):
-                        tau_trace[b, k, j] = ws[_TAU, j, ln]
+                        tau_trace[b, k, j] = ws[J0 + j * JS + _TAU + ln]
         nalive = 0
         for ln in range(W):
-            if lv[_L_ALIVE, ln] != 0.0 and lv[_L_BAD, ln] >= 0.0:
+            if ws[_L_ALIVE + ln] != 0.0 and ws[_L_BAD + ln] >= 0.0:
                 b = lanes[ln]
                 status[b, 0] = E.STATUS_NONFINITE
                 status[b, 1] = k
-                status[b, 2] = int(lv[_L_BAD, ln])
-                lv[_L_ALIVE, ln] = 0.0
-            nalive += lv[_L_ALIVE, ln] != 0.0
+                status[b, 2] = int(ws[_L_BAD + ln])
+                ws[_L_ALIVE + ln] = 0.0
+            if ws[_L_ALIVE + ln] == 0.0:
+                _reset_lane(ws, n, ln)
+            else:
+                nalive += 1
         if nalive == 0 or k == nt - 1:
             break
-        for ln in range(W):
-            if lv[_L_ALIVE, ln] == 0.0:
-                _reset_lane(ws, q0, qd0, n, ln)
         # --- plant over [t_k, t_k+1)
         for ln in range(W):
-            lv[_L_OK, ln] = 1.0
+            ws[_L_OK + ln] = 1.0
         for sub in range(substeps):
-            _rk4(pp, pg, ws, lv, n, h, exact and sub == 0, )
-        # --- status (check_state per lane)
-        for ln in range(W):
-            lv[_L_CODE, ln] = E.STATUS_OK
-            lv[_L_JOINT, ln] = -1.0
-        for j in range(n):
-            for ln in range(W):
-                fin = math.isfinite(ws[_Q, j, ln]) and math.isfinite(ws[_QD, j, ln])
-                first = lv[_L_CODE, ln] == E.STATUS_OK and not fin
-                lv[_L_CODE, ln] = E.STATUS_NONFINITE if first else lv[_L_CODE, ln]
-                lv[_L_JOINT, ln] = j if first else lv[_L_JOINT, ln]
-        for ln in range(W):
-            sing = lv[_L_CODE, ln] == E.STATUS_OK and lv[_L_OK, ln] == 0.0
-            lv[_L_CODE, ln] = E.STATUS_SINGULAR if sing else lv[_L_CODE, ln]
-            lv[_L_JOINT, ln] = 0.0 if sing else lv[_L_JOINT, ln]
-        for j in range(n):
-            for ln in range(W):
-                run = lv[_L_CODE, ln] == E.STATUS_OK and abs(ws[_QD, j, ln]) > qd_limit
-                lv[_L_CODE, ln] = E.STATUS_RUNAWAY if run else lv[_L_CODE, ln]
-                lv[_L_JOINT, ln] = j if run else lv[_L_JOINT, ln]
+            _rk4(ws, n, h, exact and sub == 0)
+        _check(ws, n, qd_limit)
         nalive = 0
         for ln in range(W):
-            if lv[_L_ALIVE, ln] != 0.0 and lv[_L_CODE, ln] != E.STATUS_OK:
+            if ws[_L_ALIVE + ln] != 0.0 and ws[_L_CODE + ln] != E.STATUS_OK:
                 b = lanes[ln]
-                status[b, 0] = int(lv[_L_CODE, ln])
+                status[b, 0] = int(ws[_L_CODE + ln])
                 status[b, 1] = k + 1
-                status[b, 2] = int(lv[_L_JOINT, ln])
-                lv[_L_ALIVE, ln] = 0.0
-            if lv[_L_ALIVE, ln] == 0.0:
-                _reset_lane(ws, q0, qd0, n, ln)
-            nalive += lv[_L_ALIVE, ln] != 0.0
+                status[b, 2] = int(ws[_L_JOINT + ln])
+                ws[_L_ALIVE + ln] = 0.0
+            if ws[_L_ALIVE + ln] == 0.0:
+                _reset_lane(ws, n, ln)
+            else:
+                nalive += 1
         if nalive == 0:
             break
     if metrics:
         for ln in range(W):
-            if lv[_L_ALIVE, ln] != 0.0:
+            if ws[_L_ALIVE + ln] != 0.0:
                 b = local[ln]
                 for r in range(NACC):
                     for j in range(n):
-                        acc[b, r, j] = ac[r, j, ln]
+                        acc[b, r, j] = ws[J0 + j * JS + (_MACC + r) * W + ln]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _reset_lane(ws: np.ndarray, q0: np.ndarray, qd0: np.ndarray, n: int, ln: int) -> None:
-    """A failed lane restarts from its initial state: finite, so it costs what a live lane
-    costs; nothing it computes is written any more."""
-    for j in range(n):
-        ws[_Q, j, ln] = q0[j, ln]
-        ws[_QD, j, ln] = qd0[j, ln]
-        ws[_QM, j, ln] = q0[j, ln]
-        ws[_QMP, j, ln] = q0[j, ln]
-        ws[_QDM, j, ln] = qd0[j, ln]
-        ws[_Z0, j, ln] = q0[j, ln]
-        ws[_ST, j, ln] = 0.0
+_compiled = False
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _stream_metrics(
-    ac: np.ndarray,
-    ws: np.ndarray,
-    tgrid: np.ndarray,
-    q_ref: np.ndarray,
-    k: int,
-    nt: int,
-    n: int,
-    t0: float,
-    delta_s: float,
-    delta_e: float,
-    start: int,
-) -> None:
-    """Sample ``k``'s part of every streamed metric (see :func:`finish_metrics`)."""
-    tk = tgrid[k]
-    dtk = tgrid[k] - tgrid[k - 1] if k > 0 else 0.0
-    dtn = tgrid[k + 1] - tgrid[k] if k < nt - 1 else 0.0
-    wt = tk - t0
-    for j in range(n):
-        qr = q_ref[k, j]
-        for ln in range(W):
-            e = ws[_Q, j, ln] - qr
-            ae = abs(e)
-            we = wt * ae
-            tau = ws[_TAU, j, ln]
-            s = ws[_S, j, ln]
-            _neumaier(ac, M_SE2, j, ln, e * e)
-            if k > 0:
-                _neumaier(ac, M_IAE, j, ln, (ae + ac[M_PAE, j, ln]) * dtk)
-                _neumaier(ac, M_ITAE, j, ln, (we + ac[M_PWE, j, ln]) * dtk)
-            ac[M_PAE, j, ln] = ae
-            ac[M_PWE, j, ln] = we
-            if k < nt - 1:
-                _neumaier(ac, M_EFF, j, ln, tau * tau * dtn)
-                ac[M_PEAK, j, ln] = max(ac[M_PEAK, j, ln], abs(tau))
-                if k > 0:
-                    _neumaier(ac, M_CHAT, j, ln, abs(tau - ac[M_PTAU, j, ln]))
-                ac[M_PTAU, j, ln] = tau
-            if k >= start:
-                ac[M_SSE, j, ln] = max(ac[M_SSE, j, ln], ae)
-            ac[M_FINAL, j, ln] = e
-            # last sample outside the band, the value there and at the next sample
-            so = abs(s) > delta_s
-            ac[M_S_XK1, j, ln] = s if k == ac[M_S_LAST, j, ln] + 1.0 else ac[M_S_XK1, j, ln]
-            ac[M_S_LAST, j, ln] = k if so else ac[M_S_LAST, j, ln]
-            ac[M_S_XK, j, ln] = s if so else ac[M_S_XK, j, ln]
-            ac[M_S_XK1, j, ln] = s if so else ac[M_S_XK1, j, ln]
-            eo = ae > delta_e
-            ac[M_E_XK1, j, ln] = e if k == ac[M_E_LAST, j, ln] + 1.0 else ac[M_E_XK1, j, ln]
-            ac[M_E_LAST, j, ln] = k if eo else ac[M_E_LAST, j, ln]
-            ac[M_E_XK, j, ln] = e if eo else ac[M_E_XK, j, ln]
-            ac[M_E_XK1, j, ln] = e if eo else ac[M_E_XK1, j, ln]
+@contextmanager
+def _slp_vectorised() -> Iterator[None]:
+    """numba's SLP vectoriser on, for a compilation that happens in the block."""
+    saved = _numba_config.SLP_VECTORIZE
+    _numba_config.SLP_VECTORIZE = 1
+    try:
+        yield
+    finally:
+        _numba_config.SLP_VECTORIZE = saved
 
 
+def compiled() -> None:
+    """Compile (or load from the cache) :func:`run_block` with the SLP vectoriser on: it is
+    what turns the unrolled lane loops into vector operations. Called by the batch before its
+    first block; a no-op afterwards."""
+    global _compiled
+    if _compiled:
+        return
+    from numba import types as T
+
+    f8 = T.float64
+    i8 = T.int64
+    a1 = T.Array(f8, 1, "C")
+    a2 = T.Array(f8, 2, "C")
+    a3 = T.Array(f8, 3, "C")
+    sig = (
+        T.Array(i8, 1, "C"), T.Array(i8, 1, "C"), a3, a1, a1, a3, a3, a1, a2, a2, a1, a2, a2,
+        a2, a3, T.Array(T.boolean, 3, "C"), i8, a3, a3, a2, f8, i8, f8, i8, a3, a3, a3, a3,
+        a3, a3, T.boolean, a1, a3, a3, T.Array(i8, 2, "C"),
+    )  # fmt: skip
+    with _slp_vectorised():
+        run_block.compile(sig)
+    _compiled = True
 def _entry_time(t: np.ndarray, last: np.ndarray, xk: np.ndarray, xk1: np.ndarray, delta: float) -> np.ndarray:
     """:func:`slidingarm.metrics._entry_time` from the streamed last sample outside the band
     (``-1``: none) and the values there and at the next sample: the same formulas."""

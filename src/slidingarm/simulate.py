@@ -836,6 +836,9 @@ def simulate_batch(
         return metric_values(t, q - qr[None], s, tau, status[sl, 0] != E.STATUS_OK)
 
     if _block_eligible(plan):
+        from slidingarm import _block as BK
+
+        BK.compiled()
         stage = _block_stage(plan)
         bchunks = [
             stage.blocks[i : i + BLOCK_CHUNK] for i in range(0, len(stage.blocks), BLOCK_CHUNK)
