@@ -58,25 +58,21 @@ from numba import njit
 from numba.core import config as _numba_config
 
 from slidingarm import _engine as E
+from slidingarm import _vecmath as VM
 from slidingarm.control import _kernels as CK
 
 #: Lanes of a block: eight float64, one AVX-512 register.
 W = 8
 
-#: The elementary functions of the block loop: those of the scalar loop
-#: (:mod:`slidingarm.models._kernels`, :mod:`slidingarm.control._kernels`), so that runs are
-#: bit-identical.
-sin = math.sin
-cos = math.cos
-tanh = math.tanh
+#: The elementary functions of the block loop, inlined into its lane loops
+#: (:mod:`slidingarm._vecmath`, at most 1 ulp each, no libm call): those the scalar loop calls
+#: (:func:`slidingarm.models._kernels.sincos`, :func:`slidingarm.control._kernels.pow_abs`
+#: and ``tanh``), so that runs are bit-identical.
+sincos = VM.sincos
+pow_abs = VM.pow_abs
+tanh = VM.tanh
 
 _OPT = {"cache": True, "nogil": True, "error_model": "numpy"}
-
-
-@njit(inline="always", **_OPT)
-def pow_abs(x: float, g: float) -> float:
-    """:math:`|x|^g` as the scalar law computes it (``abs(x) ** g``)."""
-    return abs(x) ** g
 
 
 @njit(inline="always", **_OPT)
@@ -207,6 +203,10 @@ NACC = 22
 _NJR = _MACC + NACC
 #: Stride of one joint's rows.
 JS = _NJR * W
+#: ``o & _NONNEG`` is ``o`` for any offset here, and tells LLVM that an index built on it is not
+#: negative, so that numba's wraparound of negative indices (a compare and a select per
+#: access, which also stops the vectoriser) compiles away.
+_NONNEG = 2**40 - 1
 _A_SE2 = (_MACC + M_SE2) * W
 _A_SE2C = (_MACC + M_SE2C) * W
 _A_IAE = (_MACC + M_IAE) * W
@@ -254,13 +254,13 @@ def _angles_law(ws: np.ndarray, n: int) -> None:
     for ln in range(W):
         ws[_L_PHI + ln] = 0.0
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[_L_PHI + ln] += ws[o + _QM + ln]
         for ln in range(W):
-            ws[o + _LC + ln] = cos(ws[_L_PHI + ln])
-        for ln in range(W):
-            ws[o + _LS + ln] = sin(ws[_L_PHI + ln])
+            sv, cv = sincos(ws[_L_PHI + ln])
+            ws[o + _LC + ln] = cv
+            ws[o + _LS + ln] = sv
 
 
 @njit(**_OPT)
@@ -269,13 +269,13 @@ def _angles_state(ws: np.ndarray, n: int) -> None:
     for ln in range(W):
         ws[_L_PHI + ln] = 0.0
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[_L_PHI + ln] += ws[o + _Q + ln]
         for ln in range(W):
-            ws[o + _BC + ln] = cos(ws[_L_PHI + ln])
-        for ln in range(W):
-            ws[o + _BS + ln] = sin(ws[_L_PHI + ln])
+            sv, cv = sincos(ws[_L_PHI + ln])
+            ws[o + _BC + ln] = cv
+            ws[o + _BS + ln] = sv
 
 
 @njit(**_OPT)
@@ -284,13 +284,13 @@ def _angles_stage(ws: np.ndarray, n: int) -> None:
     for ln in range(W):
         ws[_L_PHI + ln] = 0.0
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[_L_PHI + ln] += ws[o + _QT + ln]
         for ln in range(W):
-            ws[o + _DC + ln] = cos(ws[_L_PHI + ln])
-        for ln in range(W):
-            ws[o + _DS + ln] = sin(ws[_L_PHI + ln])
+            sv, cv = sincos(ws[_L_PHI + ln])
+            ws[o + _DC + ln] = cv
+            ws[o + _DS + ln] = sv
 
 
 @njit(**_OPT)
@@ -304,7 +304,7 @@ def _rnea(ws: np.ndarray, n: int) -> None:
         ws[_L_AX + ln] = 0.0
         ws[_L_AY + ln] = ws[_L_MG + ln]
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             w = ws[_L_W + ln] + ws[o + _QDM + ln]
             wd = ws[_L_WD + ln] + ws[o + _ACC + ln]
@@ -325,8 +325,9 @@ def _rnea(ws: np.ndarray, n: int) -> None:
         ws[_L_FX + ln] = 0.0
         ws[_L_FY + ln] = 0.0
         ws[_L_MOM + ln] = 0.0
-    for i in range(n - 1, -1, -1):
-        o = J0 + i * JS
+    for ii in range(n):
+        i = n - 1 - ii
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             m = ws[o + _MM + ln]
             c = ws[o + _MC + ln]
@@ -360,7 +361,7 @@ def _aba(ws: np.ndarray, n: int) -> None:
         ws[_L_T0 + ln] = 0.0
         ws[_L_T1 + ln] = 0.0
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             w = ws[_L_W + ln] + ws[o + _VT + ln]
             vx = ws[_L_T0 + ln]
@@ -371,19 +372,40 @@ def _aba(ws: np.ndarray, n: int) -> None:
             ws[_L_T0 + ln] = vx - w * ws[o + _PL + ln] * ws[o + _AS + ln]
             ws[_L_T1 + ln] = vy + w * ws[o + _PL + ln] * ws[o + _AC + ln]
             ws[_L_W + ln] = w
-    # the child's articulated inertia ca..cf in T0..T5 and bias force p0..p2 in T6..T8
-    for ln in range(W):
-        ws[_L_T0 + ln] = 0.0
-        ws[_L_T1 + ln] = 0.0
-        ws[_L_T2 + ln] = 0.0
-        ws[_L_T3 + ln] = 0.0
-        ws[_L_T4 + ln] = 0.0
-        ws[_L_T5 + ln] = 0.0
-        ws[_L_T6 + ln] = 0.0
-        ws[_L_T7 + ln] = 0.0
-        ws[_L_T8 + ln] = 0.0
-    for i in range(n - 1, -1, -1):
-        o = J0 + i * JS
+    # pass 2, tip to base. The child's articulated quantities are kept unmoved in lane rows
+    # T3..T8 (dd, de, df, pa1, pa2 and its tau) and moved to joint i at the start of joint
+    # i's iteration, with joint i's own r = l_i u_i: the same operations as the scalar
+    # kernel's move at the end of the child's iteration, with no index below joint i.
+    for ii in range(n):
+        i = n - 1 - ii
+        o = (J0 + i * JS) & _NONNEG
+        if ii == 0:
+            for ln in range(W):
+                ws[_L_T0 + ln] = 0.0
+                ws[_L_T1 + ln] = 0.0
+                ws[_L_T2 + ln] = 0.0
+                ws[_L_T3 + ln] = 0.0
+                ws[_L_T4 + ln] = 0.0
+                ws[_L_T5 + ln] = 0.0
+                ws[_L_T6 + ln] = 0.0
+                ws[_L_T7 + ln] = 0.0
+                ws[_L_T8 + ln] = 0.0
+        else:
+            for ln in range(W):
+                dd = ws[_L_T3 + ln]
+                de = ws[_L_T4 + ln]
+                df = ws[_L_T5 + ln]
+                pa1 = ws[_L_T7 + ln]
+                pa2 = ws[_L_T8 + ln]
+                tau_c = ws[_L_T6 + ln]
+                rx = ws[o + _PL + ln] * ws[o + _AC + ln]
+                ry = ws[o + _PL + ln] * ws[o + _AS + ln]
+                cb = rx * de - ry * dd
+                cc = rx * df - ry * de
+                ws[_L_T0 + ln] = rx * cc - ry * cb
+                ws[_L_T1 + ln] = cb
+                ws[_L_T2 + ln] = cc
+                ws[_L_T6 + ln] = tau_c + rx * pa2 - ry * pa1
         for ln in range(W):
             ca = ws[_L_T0 + ln]
             cb = ws[_L_T1 + ln]
@@ -416,7 +438,8 @@ def _aba(ws: np.ndarray, n: int) -> None:
             ok = ws[_L_OK + ln]
             ws[_L_OK + ln] = ok if d > 0.0 else 0.0
             dinv = 1.0 / d
-            u = ws[o + _TAPP + ln] - pa0
+            tau_i = ws[o + _TAPP + ln]
+            u = tau_i - pa0
             ws[o + _KX + ln] = u
             qdi = ws[o + _VT + ln]
             cvx = vyi * qdi
@@ -426,51 +449,43 @@ def _aba(ws: np.ndarray, n: int) -> None:
             ws[o + _A4 + ln] = cvy
             ws[o + _A5 + ln] = ib
             ws[o + _A6 + ln] = ic
-            if i > 0:
-                bd = ib * dinv
-                cdv = ic * dinv
-                dd -= ib * bd
-                de -= ib * cdv
-                df -= ic * cdv
-                ud = u * dinv
-                pa1 += dd * cvx + de * cvy + ib * ud
-                pa2 += de * cvx + df * cvy + ic * ud
-                rx = ws[o - JS + _PL + ln] * ws[o - JS + _AC + ln]
-                ry = ws[o - JS + _PL + ln] * ws[o - JS + _AS + ln]
-                cb = rx * de - ry * dd
-                cc = rx * df - ry * de
-                ws[_L_T0 + ln] = rx * cc - ry * cb
-                ws[_L_T1 + ln] = cb
-                ws[_L_T2 + ln] = cc
-                ws[_L_T3 + ln] = dd
-                ws[_L_T4 + ln] = de
-                ws[_L_T5 + ln] = df
-                ws[_L_T6 + ln] = ws[o + _TAPP + ln] + rx * pa2 - ry * pa1
-                ws[_L_T7 + ln] = pa1
-                ws[_L_T8 + ln] = pa2
-    # pass 3, base to tip: alpha in T0, ax in T1, ay in T2
+            # what the parent's iteration needs, if there is a parent
+            bd = ib * dinv
+            cdv = ic * dinv
+            dd -= ib * bd
+            de -= ib * cdv
+            df -= ic * cdv
+            ud = u * dinv
+            pa1 += dd * cvx + de * cvy + ib * ud
+            pa2 += de * cvx + df * cvy + ic * ud
+            ws[_L_T3 + ln] = dd
+            ws[_L_T4 + ln] = de
+            ws[_L_T5 + ln] = df
+            ws[_L_T6 + ln] = tau_i
+            ws[_L_T7 + ln] = pa1
+            ws[_L_T8 + ln] = pa2
+    # pass 3, base to tip: alpha in T0, ax in T1, ay in T2; the parent's l, sin, cos in T3..T5
     for ln in range(W):
         ws[_L_T0 + ln] = 0.0
         ws[_L_T1 + ln] = 0.0
         ws[_L_T2 + ln] = ws[_L_G + ln]
-    for ln in range(W):
-        o = J0
-        alpha_i = (
-            ws[o + _KX + ln] - ws[o + _A5 + ln] * ws[_L_T1 + ln] - ws[o + _A6 + ln] * ws[_L_T2 + ln]
-        ) * ws[o + _A2 + ln]
-        ws[o + _KX + ln] = alpha_i - ws[_L_T0 + ln]
-        ws[_L_T0 + ln] = alpha_i
-    for i in range(1, n):
-        o = J0 + i * JS
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        if i > 0:
+            for ln in range(W):
+                alpha = ws[_L_T0 + ln]
+                ws[_L_T1 + ln] += ws[o + _A3 + ln] - alpha * ws[_L_T3 + ln] * ws[_L_T4 + ln]
+                ws[_L_T2 + ln] += ws[o + _A4 + ln] + alpha * ws[_L_T3 + ln] * ws[_L_T5 + ln]
         for ln in range(W):
             alpha = ws[_L_T0 + ln]
-            ax = ws[_L_T1 + ln] + (ws[o + _A3 + ln] - alpha * ws[o - JS + _PL + ln] * ws[o - JS + _AS + ln])
-            ay = ws[_L_T2 + ln] + (ws[o + _A4 + ln] + alpha * ws[o - JS + _PL + ln] * ws[o - JS + _AC + ln])
+            ax = ws[_L_T1 + ln]
+            ay = ws[_L_T2 + ln]
             alpha_i = (ws[o + _KX + ln] - ws[o + _A5 + ln] * ax - ws[o + _A6 + ln] * ay) * ws[o + _A2 + ln]
             ws[o + _KX + ln] = alpha_i - alpha
             ws[_L_T0 + ln] = alpha_i
-            ws[_L_T1 + ln] = ax
-            ws[_L_T2 + ln] = ay
+            ws[_L_T3 + ln] = ws[o + _PL + ln]
+            ws[_L_T4 + ln] = ws[o + _AS + ln]
+            ws[_L_T5 + ln] = ws[o + _AC + ln]
 
 
 _R6 = 1.0 / 6.0
@@ -490,7 +505,7 @@ def _stage_angles(ws: np.ndarray, n: int) -> None:
         ws[_L_DELTA + ln] = 0.0
         ws[_L_FAR + ln] = 0.0
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
             ws[_L_DELTA + ln] = delta
@@ -504,7 +519,7 @@ def _stage_angles(ws: np.ndarray, n: int) -> None:
     for ln in range(W):
         ws[_L_DELTA + ln] = 0.0
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
             ws[_L_DELTA + ln] = delta
@@ -531,7 +546,7 @@ def _stage(ws: np.ndarray, n: int, c: float, h: float, first: bool, kprev: int, 
     """Stage input of RK4 (:func:`slidingarm.models._kernels.rk4_step`): position ``q + c h
     v`` into ``_QT`` (its step into ``_DQ``), velocity ``qd + c h k_prev`` into ``_VT``."""
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             qd = ws[o + _QD + ln]
             v_alt = qd + 0.5 * h * ws[o + kprev2 + ln]
@@ -545,7 +560,7 @@ def _stage(ws: np.ndarray, n: int, c: float, h: float, first: bool, kprev: int, 
 @njit(inline="always", **_OPT)
 def _keep_stage(ws: np.ndarray, n: int, krow: int) -> None:
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[o + krow + ln] = ws[o + _KX + ln]
 
@@ -555,19 +570,19 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
     """One RK4 step of every lane (:func:`slidingarm.models._kernels.rk4_step`); ``known``:
     ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[o + _VT + ln] = ws[o + _QD + ln]
     if known:
         for i in range(n):
-            o = J0 + i * JS
+            o = (J0 + i * JS) & _NONNEG
             for ln in range(W):
                 ws[o + _BC + ln] = ws[o + _LC + ln]
                 ws[o + _BS + ln] = ws[o + _LS + ln]
     else:
         _angles_state(ws, n)
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[o + _AC + ln] = ws[o + _BC + ln]
             ws[o + _AS + ln] = ws[o + _BS + ln]
@@ -585,7 +600,7 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
     _stage_angles(ws, n)
     _aba(ws, n)
     for i in range(n):
-        o = J0 + i * JS
+        o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             qd = ws[o + _QD + ln]
             k0 = ws[o + _K0 + ln]
@@ -607,7 +622,7 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
     (:func:`slidingarm.control._kernels.control_into`): ``s`` into ``_S``, the torque into
     ``_TAU``, the angles of the measurement into ``_LC``, ``_LS``."""
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         qr = q_ref[k, j]
         qdr = qd_ref[k, j]
         if fast_terminal:
@@ -651,7 +666,7 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
                 ws[o + _S + ln] = ej + ws[o + _TMP2 + ln] * sg / beta
                 ws[o + _NU + ln] = beta / gamma * ws[o + _TMP3 + ln] * sg
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         if swcode == CK.SWITCH_TANH:
             for ln in range(W):
                 ws[o + _TMP + ln] = tanh(ws[o + _S + ln] / ws[o + _CFW + ln])
@@ -685,7 +700,7 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
     estimate (``_QDM``) per lane, as :func:`slidingarm._engine.control_sample`; whether every
     lane's measurement equals its state."""
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             v = ws[o + _Q + ln] + ws[o + _MADD + ln]
             held = ws[o + _QMP + ln]
@@ -693,7 +708,7 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
             ws[o + _QM + ln] = held if hold else v
     if vcode == E.VEL_TRUE or k == 0:
         for j in range(n):
-            o = J0 + j * JS
+            o = (J0 + j * JS) & _NONNEG
             for ln in range(W):
                 ws[o + _QDM + ln] = ws[o + _QD + ln]
             if vcode != E.VEL_TRUE:
@@ -701,18 +716,18 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
                     ws[o + _Z0 + ln] = ws[o + _QM + ln]
     elif vcode == E.VEL_DIFFERENCE:
         for j in range(n):
-            o = J0 + j * JS
+            o = (J0 + j * JS) & _NONNEG
             for ln in range(W):
                 ws[o + _QDM + ln] = (ws[o + _QM + ln] - ws[o + _QMP + ln]) / dt
     elif vcode == E.VEL_FILTERED:
         for j in range(n):
-            o = J0 + j * JS
+            o = (J0 + j * JS) & _NONNEG
             for ln in range(W):
                 tf = ws[o + _VF0 + E.VF_TIME_CONSTANT * W + ln]
                 ws[o + _QDM + ln] = (tf * ws[o + _QDM + ln] + (ws[o + _QM + ln] - ws[o + _QMP + ln])) / (tf + dt)
     else:
         for j in range(n):
-            o = J0 + j * JS
+            o = (J0 + j * JS) & _NONNEG
             for ln in range(W):
                 lip = ws[o + _VF0 + E.VF_LIPSCHITZ * W + ln]
                 sigma = ws[o + _Z0 + ln] - ws[o + _QM + ln]
@@ -724,7 +739,7 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
                 ws[o + _QDM + ln] = qdm + dt * (-ws[o + _VF0 + E.VF_LAMBDA0 * W + ln] * lip * sg)
     exact = True
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             ws[o + _QMP + ln] = ws[o + _QM + ln]
             exact &= ws[o + _QM + ln] == ws[o + _Q + ln]
@@ -738,7 +753,7 @@ def _clip(ws: np.ndarray, n: int) -> None:
     for ln in range(W):
         ws[_L_BAD + ln] = -1.0
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             t_j = ws[o + _TAU + ln]
             lim = ws[o + _TMAX + ln]
@@ -758,7 +773,7 @@ def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
         ws[_L_CODE + ln] = E.STATUS_OK
         ws[_L_JOINT + ln] = -1.0
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             fin = math.isfinite(ws[o + _Q + ln]) and math.isfinite(ws[o + _QD + ln])
             code = ws[_L_CODE + ln]
@@ -773,7 +788,7 @@ def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
         joint = ws[_L_JOINT + ln]
         ws[_L_JOINT + ln] = 0.0 if sing else joint
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             code = ws[_L_CODE + ln]
             run = code == E.STATUS_OK and abs(ws[o + _QD + ln]) > qd_limit
@@ -792,7 +807,7 @@ def _stream_metrics(ws: np.ndarray, n: int, tgrid: np.ndarray, q_ref: np.ndarray
     dtn = tgrid[k + 1] - tgrid[k] if k < nt - 1 else 0.0
     fk = float(k)
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         qr = q_ref[k, j]
         for ln in range(W):
             e = ws[o + _Q + ln] - qr
@@ -847,7 +862,7 @@ def _reset_lane(ws: np.ndarray, n: int, ln: int) -> None:
     """A failed lane restarts from its initial state: finite values, which cost what a live
     lane's cost; nothing it computes is written any more."""
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         q0 = ws[o + _Q0 + ln]
         qd0 = ws[o + _QD0 + ln]
         ws[o + _Q + ln] = q0
@@ -935,7 +950,7 @@ def run_block(
         status[lanes[ln], 1] = -1
         status[lanes[ln], 2] = -1
     for j in range(n):
-        o = J0 + j * JS
+        o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             ws[o + _Q0 + ln] = q0[j, ln]
             ws[o + _QD0 + ln] = qd0[j, ln]
@@ -954,7 +969,7 @@ def run_block(
     for k in range(nt):
         if has_add or has_hold or has_dist:
             for j in range(n):
-                o = J0 + j * JS
+                o = (J0 + j * JS) & _NONNEG
                 for ln in range(W):
                     if has_add:
                         ws[o + _MADD + ln] = madd[k, j, ln]
@@ -971,7 +986,7 @@ def run_block(
                 if ws[_L_ALIVE + ln] != 0.0:
                     b = lanes[ln]
                     for j in range(n):
-                        o = J0 + j * JS + ln
+                        o = ((J0 + j * JS) & _NONNEG) + ln
                         q_b[b, kk, j] = ws[o + _Q]
                         qd_b[b, kk, j] = ws[o + _QD]
                         qm_b[b, kk, j] = ws[o + _QM]

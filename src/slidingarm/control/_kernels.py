@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from slidingarm import _vecmath as VM
 from slidingarm.models import _dispatch as MD
 
 # --- integer codes: ci[CI_*] ------------------------------------------------------------------
@@ -78,6 +79,20 @@ def pack(ci: np.ndarray, cf: np.ndarray) -> np.ndarray:
 
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def pow_abs(x: float, g: float) -> float:
+    """:math:`|x|^g` (``g > 0``) by :func:`slidingarm._vecmath.pow_abs` (at most 1 ulp),
+    the function the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that
+    a run is bit-identical on both paths; one compiled body for every call here."""
+    return VM.pow_abs(x, g)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def tanh(x: float) -> float:
+    """``tanh x`` by :func:`slidingarm._vecmath.tanh` (at most 1 ulp), as :func:`pow_abs`."""
+    return VM.tanh(x)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _sign(x: float) -> float:
     if x > 0.0:
@@ -93,7 +108,7 @@ def switch(code: int, s: float, width: float) -> float:
     if code == SWITCH_SIGN:
         return _sign(s)
     if code == SWITCH_TANH:
-        return math.tanh(s / width)
+        return tanh(s / width)
     x = s / width
     if x > 1.0:
         return 1.0
@@ -117,18 +132,17 @@ def _surface_joint(
             ae = abs(ej)
             eps_e = p[NCI + CF_EPS_E * n + j]
             if ae >= eps_e:
-                pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
+                pw = pow_abs(ej, gamma)  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
                 s += beta * pw * _sign(ej)
                 gain += beta * gamma * pw / ae
             else:
-                s += beta * (ae**gamma) * _sign(ej)
+                s += beta * pow_abs(ej, gamma) * _sign(ej)
                 gain += beta * gamma * eps_e ** (gamma - 1.0)
         return s, gain * edj
     beta = p[NCI + CF_BETA * n + j]
     gamma = p[NCI + CF_GAMMA * n + j]
-    aed = abs(edj)
     sg = _sign(edj)
-    return ej + (aed**gamma) * sg / beta, beta / gamma * (aed ** (2.0 - gamma)) * sg
+    return ej + pow_abs(edj, gamma) * sg / beta, beta / gamma * pow_abs(edj, 2.0 - gamma) * sg
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
