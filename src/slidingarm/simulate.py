@@ -483,21 +483,25 @@ def _run_blocks(
     codes, cf, mp, mg, cidx = stage.law
     vcodes, vf, sensors, sidx = stage.sensor
     tl, lidx = stage.limit
-    runs = np.unique(np.concatenate(blocks))
-    where = {int(b): i for i, b in enumerate(runs)}
     dummy = np.empty((1, 1, n))
     outs = keep if keep is not None else [dummy] * 6
-    if metrics:
-        acc = np.zeros((runs.shape[0], BK.NACC, n))
-        tau_trace = np.zeros((runs.shape[0], nt, n))
-    else:
-        acc = np.zeros((1, BK.NACC, n))
-        tau_trace = dummy
     bands = np.array([DEFAULT_DELTA_S, DEFAULT_DELTA_E, BK.steady_start(t, DEFAULT_WINDOW)])
     q0s = plan.q0 if plan.q0.shape[0] > 1 else np.broadcast_to(plan.q0, (plan.nb, n))
     qd0s = plan.qd0 if plan.qd0.shape[0] > 1 else np.broadcast_to(plan.qd0, (plan.nb, n))
+    done: list[NDArray[np.int64]] = []
+    values: list[dict[str, FloatArray]] = []
     for lanes in blocks:
+        # the block's distinct runs (a padded block repeats one) and each lane's index there
+        runs = np.array(list(dict.fromkeys(lanes.tolist())), dtype=np.int64)
+        where = {int(b): i for i, b in enumerate(runs)}
         local = np.array([where[int(b)] for b in lanes], dtype=np.int64)
+        # the metrics' working set is one block's: memory does not grow with the chunk
+        if metrics:
+            acc = np.zeros((runs.shape[0], BK.NACC, n))
+            tau_trace = np.zeros((runs.shape[0], nt, n))
+        else:
+            acc = np.zeros((1, BK.NACC, n))
+            tau_trace = dummy
         madd = mhold = dist = None
         for ln, b in enumerate(lanes.tolist()):
             sens = sensors[sidx[b]]
@@ -534,13 +538,19 @@ def _run_blocks(
             plan.dt, plan.substeps, plan.qd_limit, stride if keep is not None else 0, *outs,
             metrics, bands, acc, tau_trace, status,
         )  # fmt: skip
+        if metrics:
+            failed = status[runs, 0] != E.STATUS_OK
+            done.append(runs)
+            part = BK.finish_metrics(
+                t, acc, tau_trace, failed, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E,
+                cutoff_hz=DEFAULT_CUTOFF_HZ,
+            )  # fmt: skip
+            values.append(part)
     if not metrics:
         return None
-    failed = status[runs, 0] != E.STATUS_OK
-    return runs, BK.finish_metrics(
-        t, acc, tau_trace, failed, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E,
-        cutoff_hz=DEFAULT_CUTOFF_HZ,
-    )  # fmt: skip
+    return np.concatenate(done), {
+        name: np.concatenate([v[name] for v in values]) for name in values[0]
+    }
 
 
 def _run_stepped(
@@ -840,9 +850,10 @@ def simulate_batch(
 
         BK.compiled()
         stage = _block_stage(plan)
-        bchunks = [
-            stage.blocks[i : i + BLOCK_CHUNK] for i in range(0, len(stage.blocks), BLOCK_CHUNK)
-        ]
+        # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
+        nthr = max(1, int(config.NUMBA_NUM_THREADS))
+        per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))
+        bchunks = [stage.blocks[i : i + per] for i in range(0, len(stage.blocks), per)]
 
         def bwork(
             blocks: list[NDArray[np.int64]],
@@ -894,21 +905,32 @@ def simulate_batch(
             run=b,
         )
 
+    # each distinct object's dict is built once and shared by the runs that use it
+    # (O(distinct objects), not O(B) calls of to_dict)
+    memo: dict[tuple[str, int], Any] = {}
+
+    def once(kind: str, obj: Any, make: Any) -> Any:
+        key = (kind, id(obj))
+        if key not in memo:
+            memo[key] = make(obj)
+        return memo[key]
+
+    ref_dict = reference.to_dict()
     params = [
         {
             "version": __version__,
-            "plant": _pick(plants, b).to_dict(),
-            "controller": _pick(ctrls, b).to_dict(),
+            "plant": once("plant", _pick(plants, b), lambda x: x.to_dict()),
+            "controller": once("ctrl", _pick(ctrls, b), lambda x: x.to_dict()),
             "label": _pick(ctrls, b).label,
             "s_unit": _pick(ctrls, b).s_unit,
-            "reference": reference.to_dict(),
+            "reference": ref_dict,
             "q0": q0a[b if q0a.shape[0] > 1 else 0].tolist(),
             "qd0": qd0a[b if qd0a.shape[0] > 1 else 0].tolist(),
             "t_final": float(t[-1]),
             "dt": float(dt),
             "substeps": int(substeps),
-            "sensor": _pick(sensors, b).to_dict(),
-            "disturbances": [d.to_dict() for d in _pick(dists, b)],
+            "sensor": once("sensor", _pick(sensors, b), lambda x: x.to_dict()),
+            "disturbances": once("dist", _pick(dists, b), lambda x: [d.to_dict() for d in x]),
             "torque_limit": None if _pick(limits, b) is None else _pick(limits, b).tolist(),
             "seed": run_seeds[b],
         }
