@@ -112,7 +112,7 @@ def main() -> None:
     sizes = [64, 1000] if args.quick else args.sizes
     repeats = 1 if args.quick else args.repeats
     ref = problem()[2]
-    t = sa.time_grid(T_FINAL, DT)
+    t = S.time_grid(T_FINAL, DT)
     qr, qdr, qddr = (np.ascontiguousarray(a) for a in ref.evaluate(t))
     inputs = (NR.MASSES, NR.LENGTHS, NR.GRAVITY, qr, qdr, qddr)
     # warm-up: compile (or load) all three
