@@ -364,16 +364,23 @@ def _block_eligible(plan: _Plan) -> bool:
     """Whether every run is a compiled planar plant under a built-in sliding-mode law with
     ``law = "model"`` and a planar nominal model: what :func:`slidingarm._block.run_block`
     computes."""
+    return _block_eligible_runs(plan.plants, plan.ctrls, plan.nb)
+
+
+def _block_eligible_runs(
+    plants: list[ArmModel | SteppedPlant], ctrls: list[Controller], nb: int
+) -> bool:
+    """:func:`_block_eligible` from the plants, controllers and batch size."""
     from slidingarm.control import _dispatch as LD
     from slidingarm.control import _kernels as CK
     from slidingarm.models import _dispatch as MD
 
-    if plan.nb < BLOCK_MIN_RUNS:
+    if nb < BLOCK_MIN_RUNS:
         return False
-    for p in plan.plants:
+    for p in plants:
         if isinstance(p, SteppedPlant) or p.handle.kind != MD.KIND_PLANAR:
             return False
-    for c in plan.ctrls:
+    for c in ctrls:
         law = c.handle
         if law.code != LD.LAW_SLIDING_MODE or c.model.handle.kind != MD.KIND_PLANAR:
             return False
@@ -644,7 +651,13 @@ def available_memory() -> int | None:
 
 
 def memory_estimate(
-    samples: int, joints: int, runs: int = 1, *, record: Record = "full", threads: int = 1
+    samples: int,
+    joints: int,
+    runs: int = 1,
+    *,
+    record: Record = "full",
+    threads: int = 1,
+    block: bool | None = None,
 ) -> int:
     """Bytes a batch allocates: its kept traces plus its workspaces.
 
@@ -660,6 +673,12 @@ def memory_estimate(
     signals (:math:`q, \\dot q`, their measurements, :math:`\\tau`, :math:`s`) of every run;
     per thread, a run's sensor and disturbance arrays and, unless every sample is kept, a
     chunk's full traces and the temporaries of its metrics.
+
+    On the block path (``block``; by default whenever :math:`B \\ge` :data:`BLOCK_MIN_RUNS`,
+    the runs of a planar arm under a built-in law) the per-thread term is instead
+    :math:`8\\,P\\,T n \\cdot 68`: a block's sensor and disturbance arrays for its eight lanes,
+    their per-run temporaries, and its torque traces with the temporaries of their
+    ``hf_power_share`` (measured peaks: 12 to 59 such :math:`8 T n` units per thread).
     """
     if record == "full":
         kept = samples
@@ -670,7 +689,12 @@ def memory_estimate(
     chunk = min(runs, CHUNK_RUNS)
     grid = 8 * samples * (1 + 3 * joints)
     traces = 8 * 6 * runs * kept * joints
-    work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
+    if block is None:
+        block = runs >= BLOCK_MIN_RUNS
+    if block:
+        work = 8 * threads * samples * joints * 68
+    else:
+        work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
     return grid + traces + work
 
 
@@ -682,10 +706,12 @@ def byte_size(nbytes: float) -> str:
     return f"{nbytes:.0f} bytes"
 
 
-def _check_memory(samples: int, joints: int, runs: int, record: Record, threads: int) -> None:
+def _check_memory(
+    samples: int, joints: int, runs: int, record: Record, threads: int, block: bool
+) -> None:
     """Refuse a batch whose :func:`memory_estimate` exceeds :data:`MEMORY_SHARE` of the
     :func:`available_memory`, before anything is allocated."""
-    need = memory_estimate(samples, joints, runs, record=record, threads=threads)
+    need = memory_estimate(samples, joints, runs, record=record, threads=threads, block=block)
     avail = available_memory()
     if avail is None or need <= MEMORY_SHARE * avail:
         return
@@ -804,7 +830,8 @@ def simulate_batch(
     nt = steps + 1
     stepped = any(isinstance(p, SteppedPlant) for p in plants)
     nthreads = _threads(nb, stepped)
-    _check_memory(nt, n, nb, record, nthreads)
+    blockable = _block_eligible_runs(plants, ctrls, nb)
+    _check_memory(nt, n, nb, record, nthreads, blockable)
     t = time_grid(t_final, dt)
     # parameters chosen from the control period (an automatic eps_e) are fixed now
     ctrls = [c.for_period(float(dt)) for c in ctrls]
