@@ -350,6 +350,214 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
         )  # fmt: skip
 
 
+#: The smallest batch the block path (:mod:`slidingarm._block`) takes: below two blocks its
+#: padding and staging outweigh what the lanes save (benchmarks/bench_batch.py).
+BLOCK_MIN_RUNS = 2 * 8
+
+#: Blocks per unit of work of a thread on the block path.
+BLOCK_CHUNK = 4
+
+
+def _block_eligible(plan: _Plan) -> bool:
+    """Whether every run is a compiled planar plant under a built-in sliding-mode law with
+    ``law = "model"`` and a planar nominal model: what :func:`slidingarm._block.run_block`
+    computes."""
+    return _block_eligible_runs(plan.plants, plan.ctrls, plan.nb)
+
+
+def _block_eligible_runs(
+    plants: list[ArmModel | SteppedPlant], ctrls: list[Controller], nb: int
+) -> bool:
+    """:func:`_block_eligible` from the plants, controllers and batch size."""
+    from slidingarm.control import _dispatch as LD
+    from slidingarm.control import _kernels as CK
+    from slidingarm.models import _dispatch as MD
+
+    if nb < BLOCK_MIN_RUNS:
+        return False
+    for p in plants:
+        if isinstance(p, SteppedPlant) or p.handle.kind != MD.KIND_PLANAR:
+            return False
+    for c in ctrls:
+        law = c.handle
+        if law.code != LD.LAW_SLIDING_MODE or c.model.handle.kind != MD.KIND_PLANAR:
+            return False
+        if law.params[CK.CI_LAW] != CK.LAW_MODEL:
+            return False
+    return True
+
+
+def _distinct(items: list[Any], nb: int) -> tuple[list[Any], NDArray[np.int64]]:
+    """The distinct objects of ``items`` (by identity) and each run's index into them."""
+    index: dict[int, int] = {}
+    uniq: list[Any] = []
+    per = []
+    for x in items:
+        i = index.get(id(x))
+        if i is None:
+            i = index[id(x)] = len(uniq)
+            uniq.append(x)
+        per.append(i)
+    idx = np.array(per, dtype=np.int64)
+    return uniq, (np.zeros(nb, dtype=np.int64) if idx.shape[0] == 1 else idx)
+
+
+@dataclass(frozen=True)
+class _BlockStage:
+    """A batch's per-run block inputs, built once per distinct object: stacked tables
+    (distinct, ...) and each run's index into them."""
+
+    plant: tuple[FloatArray, FloatArray, NDArray[np.int64]]  # params (D, 4, n), g (D,), idx
+    law: tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64]]
+    sensor: tuple[NDArray[np.int64], FloatArray, list[Sensor], NDArray[np.int64]]
+    limit: tuple[FloatArray, NDArray[np.int64]]
+    blocks: list[NDArray[np.int64]]
+
+
+def _block_stage(plan: _Plan) -> _BlockStage:
+    """Tables per distinct plant, controller, sensor and limit, and the runs grouped into
+    blocks of ``W`` lanes that share the law's codes and the velocity estimator (a tail block
+    is padded by repeating its last run)."""
+    from slidingarm import _block as BK
+    from slidingarm.control import _kernels as CK
+
+    n, nb = plan.n, plan.nb
+    plants, pidx = _distinct(plan.plants, nb)
+    pp = np.stack([np.asarray(p.handle.params, dtype=np.float64) for p in plants])
+    pg = np.array([p.handle.g for p in plants], dtype=np.float64)
+    ctrls, cidx = _distinct(plan.ctrls, nb)
+    lps = [np.asarray(c.handle.params, dtype=np.float64) for c in ctrls]
+    codes = np.stack([lp[: CK.NCI] for lp in lps])
+    cf = np.stack([lp[CK.NCI :].reshape(CK.NCF, n) for lp in lps])
+    mp = np.stack([np.asarray(c.model.handle.params, dtype=np.float64) for c in ctrls])
+    mg = np.array([c.model.handle.g for c in ctrls], dtype=np.float64)
+    sensors, sidx = _distinct(plan.sensors, nb)
+    vel = [s.velocity.params(n) for s in sensors]
+    vcodes = np.array([int(v[0]) for v in vel], dtype=np.int64)
+    vf = np.stack([np.asarray(v[1], dtype=np.float64) for v in vel])
+    limits, lidx = _distinct(plan.limits, nb)
+    tl = np.stack([np.full(n, np.inf) if x is None else np.asarray(x) for x in limits])
+    # group runs by (codes, velocity estimator), in run order within a group
+    key = [
+        (*codes[cidx[b]].tolist(), int(vcodes[sidx[b]])) for b in range(nb)
+    ] if (len(ctrls) > 1 or len(sensors) > 1) else [()] * nb
+    groups: dict[tuple[Any, ...], list[int]] = {}
+    for b in range(nb):
+        groups.setdefault(key[b], []).append(b)
+    blocks = []
+    for runs in groups.values():
+        for lo in range(0, len(runs), BK.W):
+            part = runs[lo : lo + BK.W]
+            part = part + [part[-1]] * (BK.W - len(part))
+            blocks.append(np.array(part, dtype=np.int64))
+    return _BlockStage(
+        (pp, pg, pidx), (codes, cf, mp, mg, cidx), (vcodes, vf, sensors, sidx), (tl, lidx),
+        blocks,
+    )  # fmt: skip
+
+
+def _lanes(table: FloatArray, idx: NDArray[np.int64]) -> FloatArray:
+    """``table[idx]`` (W, ...) with the lane axis moved last, contiguous."""
+    return np.ascontiguousarray(np.moveaxis(table[idx], 0, -1))
+
+
+def _run_blocks(
+    plan: _Plan,
+    stage: _BlockStage,
+    blocks: list[NDArray[np.int64]],
+    keep: list[FloatArray] | None,
+    stride: int,
+    status: NDArray[np.int64],
+    metrics: bool,
+) -> tuple[NDArray[np.int64], dict[str, FloatArray]] | None:
+    """Run ``blocks`` (lane arrays of run indices) with :func:`slidingarm._block.run_block`:
+    traces into ``keep`` (six (B, K, n) arrays, every ``stride``-th sample), status into
+    ``status`` (B, 3); with ``metrics``, the chunk's runs and their metrics."""
+    from slidingarm import _block as BK
+    from slidingarm.metrics import (
+        DEFAULT_CUTOFF_HZ,
+        DEFAULT_DELTA_E,
+        DEFAULT_DELTA_S,
+        DEFAULT_WINDOW,
+    )
+
+    n, t = plan.n, plan.t
+    nt = t.shape[0]
+    qr, qdr, qddr = plan.refs
+    pp, pg, pidx = stage.plant
+    codes, cf, mp, mg, cidx = stage.law
+    vcodes, vf, sensors, sidx = stage.sensor
+    tl, lidx = stage.limit
+    dummy = np.empty((1, 1, n))
+    outs = keep if keep is not None else [dummy] * 6
+    bands = np.array([DEFAULT_DELTA_S, DEFAULT_DELTA_E, BK.steady_start(t, DEFAULT_WINDOW)])
+    q0s = plan.q0 if plan.q0.shape[0] > 1 else np.broadcast_to(plan.q0, (plan.nb, n))
+    qd0s = plan.qd0 if plan.qd0.shape[0] > 1 else np.broadcast_to(plan.qd0, (plan.nb, n))
+    done: list[NDArray[np.int64]] = []
+    values: list[dict[str, FloatArray]] = []
+    for lanes in blocks:
+        # the block's distinct runs (a padded block repeats one) and each lane's index there
+        runs = np.array(list(dict.fromkeys(lanes.tolist())), dtype=np.int64)
+        where = {int(b): i for i, b in enumerate(runs)}
+        local = np.array([where[int(b)] for b in lanes], dtype=np.int64)
+        # the metrics' working set is one block's: memory does not grow with the chunk
+        if metrics:
+            acc = np.zeros((runs.shape[0], BK.NACC, n))
+            tau_trace = np.zeros((runs.shape[0], nt, n))
+        else:
+            acc = np.zeros((1, BK.NACC, n))
+            tau_trace = dummy
+        madd = mhold = dist = None
+        for ln, b in enumerate(lanes.tolist()):
+            sens = sensors[sidx[b]]
+            seed = plan.seeds[b]
+            if sens.noise is not None or sens.faults:
+                root = np.random.SeedSequence(seed)
+                add, hold = sens.arrays(t, n, np.random.Generator(np.random.PCG64(root)))
+                if madd is None:
+                    madd = np.zeros((nt, n, BK.W))
+                    mhold = np.zeros((nt, n, BK.W), dtype=np.bool_)
+                assert mhold is not None
+                madd[:, :, ln] = add
+                mhold[:, :, ln] = hold
+            ds = _pick(plan.dists, b)
+            if ds:
+                if dist is None:
+                    dist = np.zeros((nt, n, BK.W))
+                one = np.zeros((nt, n))
+                for j, d in enumerate(ds):
+                    child = np.random.SeedSequence(seed, spawn_key=(j,))
+                    one += disturbance_torque((d,), t, n, np.random.Generator(np.random.PCG64(child)))
+                dist[:, :, ln] = one
+        if mhold is not None and not mhold.any():
+            mhold = None
+        first = int(lanes[0])
+        BK.run_block(
+            lanes, local, _lanes(pp, pidx[lanes]), pg[pidx[lanes]], codes[cidx[first]],
+            _lanes(cf, cidx[lanes]), _lanes(mp, cidx[lanes]), mg[cidx[lanes]],
+            np.ascontiguousarray(q0s[lanes].T), np.ascontiguousarray(qd0s[lanes].T), t, qr, qdr,
+            qddr, np.empty((0, n, BK.W)) if madd is None else madd,
+            np.empty((0, n, BK.W), dtype=np.bool_) if mhold is None else mhold,
+            int(vcodes[sidx[first]]), _lanes(vf, sidx[lanes]),
+            np.empty((0, n, BK.W)) if dist is None else dist, _lanes(tl, lidx[lanes]),
+            plan.dt, plan.substeps, plan.qd_limit, stride if keep is not None else 0, *outs,
+            metrics, bands, acc, tau_trace, status,
+        )  # fmt: skip
+        if metrics:
+            failed = status[runs, 0] != E.STATUS_OK
+            done.append(runs)
+            part = BK.finish_metrics(
+                t, acc, tau_trace, failed, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E,
+                cutoff_hz=DEFAULT_CUTOFF_HZ,
+            )  # fmt: skip
+            values.append(part)
+    if not metrics:
+        return None
+    return np.concatenate(done), {
+        name: np.concatenate([v[name] for v in values]) for name in values[0]
+    }
+
+
 def _run_stepped(
     plant: SteppedPlant,
     law: Any,
@@ -441,7 +649,13 @@ def available_memory() -> int | None:
 
 
 def memory_estimate(
-    samples: int, joints: int, runs: int = 1, *, record: Record = "full", threads: int = 1
+    samples: int,
+    joints: int,
+    runs: int = 1,
+    *,
+    record: Record = "full",
+    threads: int = 1,
+    block: bool | None = None,
 ) -> int:
     """Bytes a batch allocates: its kept traces plus its workspaces.
 
@@ -457,6 +671,12 @@ def memory_estimate(
     signals (:math:`q, \\dot q`, their measurements, :math:`\\tau`, :math:`s`) of every run;
     per thread, a run's sensor and disturbance arrays and, unless every sample is kept, a
     chunk's full traces and the temporaries of its metrics.
+
+    On the block path (``block``; by default whenever :math:`B \\ge` :data:`BLOCK_MIN_RUNS`,
+    the runs of a planar arm under a built-in law) the per-thread term is instead
+    :math:`8\\,P\\,T n \\cdot 68`: a block's sensor and disturbance arrays for its eight lanes,
+    their per-run temporaries, and its torque traces with the temporaries of their
+    ``hf_power_share`` (measured peaks: 12 to 59 such :math:`8 T n` units per thread).
     """
     if record == "full":
         kept = samples
@@ -467,7 +687,12 @@ def memory_estimate(
     chunk = min(runs, CHUNK_RUNS)
     grid = 8 * samples * (1 + 3 * joints)
     traces = 8 * 6 * runs * kept * joints
-    work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
+    if block is None:
+        block = runs >= BLOCK_MIN_RUNS
+    if block:
+        work = 8 * threads * samples * joints * 68
+    else:
+        work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
     return grid + traces + work
 
 
@@ -479,10 +704,12 @@ def byte_size(nbytes: float) -> str:
     return f"{nbytes:.0f} bytes"
 
 
-def _check_memory(samples: int, joints: int, runs: int, record: Record, threads: int) -> None:
+def _check_memory(
+    samples: int, joints: int, runs: int, record: Record, threads: int, block: bool
+) -> None:
     """Refuse a batch whose :func:`memory_estimate` exceeds :data:`MEMORY_SHARE` of the
     :func:`available_memory`, before anything is allocated."""
-    need = memory_estimate(samples, joints, runs, record=record, threads=threads)
+    need = memory_estimate(samples, joints, runs, record=record, threads=threads, block=block)
     avail = available_memory()
     if avail is None or need <= MEMORY_SHARE * avail:
         return
@@ -601,7 +828,8 @@ def simulate_batch(
     nt = steps + 1
     stepped = any(isinstance(p, SteppedPlant) for p in plants)
     nthreads = _threads(nb, stepped)
-    _check_memory(nt, n, nb, record, nthreads)
+    blockable = _block_eligible_runs(plants, ctrls, nb)
+    _check_memory(nt, n, nb, record, nthreads, blockable)
     t = time_grid(t_final, dt)
     # parameters chosen from the control period (an automatic eps_e) are fixed now
     ctrls = [c.for_period(float(dt)) for c in ctrls]
@@ -652,14 +880,46 @@ def simulate_batch(
         q, _qd, _qm, _qdm, tau, s = full
         return metric_values(t, q - qr[None], s, tau, status[sl, 0] != E.STATUS_OK)
 
-    if nthreads <= 1:
-        parts = [work(r) for r in chunks]
+    if _block_eligible(plan):
+        from slidingarm import _block as BK
+
+        BK.compiled()
+        stage = _block_stage(plan)
+        # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
+        nthr = max(1, int(config.NUMBA_NUM_THREADS))
+        per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))
+        bchunks = [stage.blocks[i : i + per] for i in range(0, len(stage.blocks), per)]
+
+        def bwork(
+            blocks: list[NDArray[np.int64]],
+        ) -> tuple[NDArray[np.int64], dict[str, FloatArray]] | None:
+            return _run_blocks(plan, stage, blocks, keep, stride, status, metrics is not None)
+
+        bthreads = max(1, min(int(config.NUMBA_NUM_THREADS), len(bchunks)))
+        if bthreads <= 1:
+            bparts = [bwork(c) for c in bchunks]
+        else:
+            with ThreadPoolExecutor(bthreads) as pool:
+                bparts = list(pool.map(bwork, bchunks))
+        if keep is not None:
+            _blank_kept(keep, status, stride)
+        if metrics is not None:
+            for part in bparts:
+                assert part is not None
+                runs, values = part
+                for name, v in values.items():
+                    if name not in metrics:
+                        metrics[name] = np.empty((nb, n))
+                    metrics[name][runs] = v
     else:
-        with ThreadPoolExecutor(nthreads) as pool:
-            parts = list(pool.map(work, chunks))
-    if metrics is not None:
-        for name in parts[0] or {}:
-            metrics[name] = np.concatenate([p[name] for p in parts if p is not None])
+        if nthreads <= 1:
+            parts = [work(r) for r in chunks]
+        else:
+            with ThreadPoolExecutor(nthreads) as pool:
+                parts = list(pool.map(work, chunks))
+        if metrics is not None:
+            for name in parts[0] or {}:
+                metrics[name] = np.concatenate([p[name] for p in parts if p is not None])
 
     run_seeds = plan.seeds
     messages = [
@@ -680,21 +940,32 @@ def simulate_batch(
             run=b,
         )
 
+    # each distinct object's dict is built once and shared by the runs that use it
+    # (O(distinct objects), not O(B) calls of to_dict)
+    memo: dict[tuple[str, int], Any] = {}
+
+    def once(kind: str, obj: Any, make: Any) -> Any:
+        key = (kind, id(obj))
+        if key not in memo:
+            memo[key] = make(obj)
+        return memo[key]
+
+    ref_dict = reference.to_dict()
     params = [
         {
             "version": __version__,
-            "plant": _pick(plants, b).to_dict(),
-            "controller": _pick(ctrls, b).to_dict(),
+            "plant": once("plant", _pick(plants, b), lambda x: x.to_dict()),
+            "controller": once("ctrl", _pick(ctrls, b), lambda x: x.to_dict()),
             "label": _pick(ctrls, b).label,
             "s_unit": _pick(ctrls, b).s_unit,
-            "reference": reference.to_dict(),
+            "reference": ref_dict,
             "q0": q0a[b if q0a.shape[0] > 1 else 0].tolist(),
             "qd0": qd0a[b if qd0a.shape[0] > 1 else 0].tolist(),
             "t_final": float(t[-1]),
             "dt": float(dt),
             "substeps": int(substeps),
-            "sensor": _pick(sensors, b).to_dict(),
-            "disturbances": [d.to_dict() for d in _pick(dists, b)],
+            "sensor": once("sensor", _pick(sensors, b), lambda x: x.to_dict()),
+            "disturbances": once("dist", _pick(dists, b), lambda x: [d.to_dict() for d in x]),
             "torque_limit": None if _pick(limits, b) is None else _pick(limits, b).tolist(),
             "seed": run_seeds[b],
         }
@@ -721,6 +992,15 @@ def simulate_batch(
         t_full=t,
         record="full" if record == "full" else ("metrics" if stride == 0 else f"every {stride}"),
     )
+
+
+def _blank_kept(keep: list[FloatArray], status: NDArray[np.int64], stride: int) -> None:
+    """:func:`_blank_failures` for traces kept every ``stride``-th sample: NaN from the first
+    kept sample at or after each failed run's failing sample."""
+    for i in np.flatnonzero(status[:, 0] != E.STATUS_OK):
+        first = -(-int(status[i, 1]) // stride)
+        for o in keep:
+            o[i, first:] = np.nan
 
 
 def _blank_failures(outs: list[FloatArray], status: NDArray[np.int64]) -> None:

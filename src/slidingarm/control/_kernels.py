@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from slidingarm import _vecmath as VM
 from slidingarm.models import _dispatch as MD
 
 # --- integer codes: ci[CI_*] ------------------------------------------------------------------
@@ -78,6 +79,20 @@ def pack(ci: np.ndarray, cf: np.ndarray) -> np.ndarray:
 
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def pow_abs(x: float, g: float) -> float:
+    """:math:`|x|^g` (``g > 0``) by :func:`slidingarm._vecmath.pow_abs` (at most 1 ulp),
+    the function the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that
+    a run is bit-identical on both paths; one compiled body for every call here."""
+    return VM.pow_abs(x, g)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def tanh(x: float) -> float:
+    """``tanh x`` by :func:`slidingarm._vecmath.tanh` (at most 1 ulp), as :func:`pow_abs`."""
+    return VM.tanh(x)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _sign(x: float) -> float:
     if x > 0.0:
@@ -88,12 +103,13 @@ def _sign(x: float) -> float:
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def switch(code: int, s: float, width: float) -> float:
-    """Switching function :math:`\\varphi`: ``sign(s)``, ``tanh(s/ε)`` or ``sat(s/ε)``."""
+def switch(code: int, s: float, width: float, vec: bool = False) -> float:
+    """Switching function :math:`\\varphi`: ``sign(s)``, ``tanh(s/ε)`` or ``sat(s/ε)``;
+    ``vec``: ``tanh`` by :func:`tanh` (the block loop's), else by libm."""
     if code == SWITCH_SIGN:
         return _sign(s)
     if code == SWITCH_TANH:
-        return math.tanh(s / width)
+        return tanh(s / width) if vec else math.tanh(s / width)
     x = s / width
     if x > 1.0:
         return 1.0
@@ -104,9 +120,10 @@ def switch(code: int, s: float, width: float) -> float:
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _surface_joint(
-    p: np.ndarray, j: int, n: int, ej: float, edj: float
+    p: np.ndarray, j: int, n: int, ej: float, edj: float, vec: bool = False
 ) -> tuple[float, float]:
-    """``(s, nu)`` of joint ``j`` for the errors ``ej, edj``; see :func:`surface_into`."""
+    """``(s, nu)`` of joint ``j`` for the errors ``ej, edj``; see :func:`surface_into`.
+    ``vec``: the powers by :func:`pow_abs` (the block loop's), else by libm."""
     if p[CI_SURFACE] == SURFACE_FAST_TERMINAL:
         alpha = p[NCI + CF_ALPHA * n + j]
         beta = p[NCI + CF_BETA * n + j]
@@ -117,18 +134,20 @@ def _surface_joint(
             ae = abs(ej)
             eps_e = p[NCI + CF_EPS_E * n + j]
             if ae >= eps_e:
-                pw = ae**gamma  # |e|^gamma, and |e|^(gamma-1) = pw / |e|
+                pw = pow_abs(ej, gamma) if vec else ae**gamma  # and |e|^(gamma-1) = pw / |e|
                 s += beta * pw * _sign(ej)
                 gain += beta * gamma * pw / ae
             else:
-                s += beta * (ae**gamma) * _sign(ej)
+                s += beta * (pow_abs(ej, gamma) if vec else ae**gamma) * _sign(ej)
                 gain += beta * gamma * eps_e ** (gamma - 1.0)
         return s, gain * edj
     beta = p[NCI + CF_BETA * n + j]
     gamma = p[NCI + CF_GAMMA * n + j]
-    aed = abs(edj)
     sg = _sign(edj)
-    return ej + (aed**gamma) * sg / beta, beta / gamma * (aed ** (2.0 - gamma)) * sg
+    aed = abs(edj)
+    pg = pow_abs(edj, gamma) if vec else aed**gamma
+    pg2 = pow_abs(edj, 2.0 - gamma) if vec else aed ** (2.0 - gamma)
+    return ej + pg * sg / beta, beta / gamma * pg2 * sg
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -249,6 +268,10 @@ def control_into(
     n = q.shape[0]
     swcode = p[CI_SWITCHING]
     classic = p[CI_REACHING] == REACH_CLASSIC
+    # a planar nominal model is what the block loop (slidingarm._block) runs: its powers and
+    # tanh by the block's vectorisable functions, so that both loops compute the same bits;
+    # the serial kind keeps libm's (no block loop for it yet)
+    vec = mkind == MD.KIND_PLANAR
     nu = work[_ROW_NU]
     r = work[_ROW_R]
     acc = work[_ROW_ACC]
@@ -257,17 +280,19 @@ def control_into(
     # about 1 µs) quicker on the UR5 than one loop alternating the two, with the same results
     # (benchmarks/bench_serial.py)
     for j in range(n):
-        s, nu_j = _surface_joint(p, j, n, q[j] - q_ref[j], qd[j] - qd_ref[j])
+        s, nu_j = _surface_joint(p, j, n, q[j] - q_ref[j], qd[j] - qd_ref[j], vec)
         s_out[j] = s
         nu[j] = nu_j
     for j in range(n):
         s = s_out[j]
         # reaching term r
         if classic:
-            r[j] = p[NCI + CF_K * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j])
+            r[j] = p[NCI + CF_K * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j], vec)
         else:
             r[j] = p[NCI + CF_K * n + j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
-            st_state[j] += dt * p[NCI + CF_K2 * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j])
+            st_state[j] += dt * p[NCI + CF_K2 * n + j] * switch(
+                swcode, s, p[NCI + CF_WIDTH * n + j], vec
+            )
         acc[j] = qdd_ref[j] - nu[j] - r[j]
     if p[CI_LAW] == LAW_MODEL:
         MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)

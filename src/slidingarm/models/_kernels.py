@@ -38,6 +38,8 @@ import math
 import numpy as np
 from numba import njit
 
+from slidingarm import _vecmath as VM
+
 __all__ = [
     "WORK_ROWS",
     "aba_from_angles_into",
@@ -62,14 +64,25 @@ _CACHE = True
 _INLINE = "always"
 
 
+@njit(cache=_CACHE, nogil=True, error_model="numpy")
+def sincos(x: float) -> tuple[float, float]:
+    """``(sin x, cos x)`` by :func:`slidingarm._vecmath.sincos` (at most 1 ulp), the function
+    the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that a run's
+    trajectory is bit-identical on both paths. Not inlined here: one compiled body serves every
+    call of the scalar loop."""
+    return VM.sincos(x)
+
+
 @njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
 def angles_into(q: np.ndarray, work: np.ndarray) -> None:
-    """Cosine (row 0) and sine (row 1) of the absolute angles ``phi_i = q_0 + ... + q_i``."""
+    """Cosine (row 0) and sine (row 1) of the absolute angles ``phi_i = q_0 + ... + q_i``
+    (:func:`sincos`)."""
     phi = 0.0
     for i in range(q.shape[0]):
         phi += q[i]
-        work[0, i] = math.cos(phi)
-        work[1, i] = math.sin(phi)
+        s, c = sincos(phi)
+        work[0, i] = c
+        work[1, i] = s
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy")

@@ -1,0 +1,1182 @@
+"""The closed loop of :mod:`slidingarm._engine`, advancing a block of ``W`` runs together.
+
+:func:`run_block` is :func:`slidingarm._engine.run_one` for :data:`W` runs at once, for the
+planar kind (plant and nominal model) and the built-in sliding-mode law with ``law =
+"model"``: every surface, switching function and reaching law of
+:func:`slidingarm.control._kernels.control_into`, every velocity estimator, the held and added
+measurement arrays, torque disturbances, torque limits and ``substeps``. The law's codes, the
+velocity estimator and ``substeps`` are the same for every lane of a block (the caller groups
+runs by them), so their branches are uniform.
+
+**Layout.** Everything a lane's loop touches (state, parameters, scratch, metric
+accumulators) lives in one flat float64 workspace, structure of arrays: lane scalars at
+``ws[_L_X + ln]``, joint ``i``'s rows at ``ws[J0 + i JS + _X + ln]`` with every ``_X`` a
+multiple of ``W``, the lane index ``ln`` innermost and contiguous. Every lane loop is ``for ln
+in range(W)`` with ``W`` a compile-time constant and a branch-free body (a per-lane choice is a
+select between two computed values). One array and offsets that differ by compile-time
+constants let LLVM prove that a loop's stores do not alias its loads, so its SLP vectoriser
+turns each unrolled lane loop into ``<8 x double>`` operations (several arrays, or rows
+strided by the run-time ``n``, defeat that proof and nothing vectorises). numba leaves the SLP
+vectoriser off by default; :func:`compiled` turns it on for this module's compilation only.
+A lane loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those
+calls have loops of their own and the arithmetic around them still vectorises.
+
+**Results.** Each lane computes exactly what :func:`~slidingarm._engine.run_one` computes for
+its run: the same floating-point operations in the same order, with the same elementary
+functions, and no ``fastmath`` flag on any operation: lanes are independent, so vectorising
+needs no reassociation, and without ``contract`` no multiply-add is fused where the scalar loop
+does not fuse one. A run's trajectory is therefore bit-identical to the scalar path's,
+whatever lane or block it lands in and whatever the thread count: no value crosses lanes. The
+only block-wide decisions are whether *any* lane needs something (the direct sines and cosines
+of a large RK4 stage step, a measurement that differed from the state), and a lane that does
+not need it discards it by a select, so it computes what it would alone.
+
+**Status.** A lane whose torque, sliding variable or state stops being finite, or whose speed
+exceeds ``qd_limit``, records ``[code, sample, joint]`` as ``run_one`` would, stops writing
+outputs and restarts from its initial state (finite values cost what live ones cost); when
+every lane has failed the block returns. ``run_one``'s ABA returns early at a pivot that is not
+positive; the block computes on and only records the failure, which for a planar arm with
+positive masses happens only with a non-finite state, reported as such first.
+
+**Metrics** (``record`` other than ``"full"``): the kernel streams per lane what
+:func:`slidingarm.results.metric_values` computes from the traces: the sums by Neumaier's
+compensated summation (more accurate than numpy's pairwise sums, so the two agree to rounding),
+the maxima, and for the reaching and settling times the last sample outside the band with the
+values there and at the next sample; :func:`finish_metrics` applies the formulas of
+:mod:`slidingarm.metrics` to them. The FFT measure ``hf_power_share`` cannot stream: for it
+the kernel writes each run's torque trace ``(T, n)``, and numpy computes it per block
+(:func:`hf_power_share`, the same formulas on series contiguous in time).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+from numba import njit
+from numba.core import config as _numba_config
+
+from slidingarm import _engine as E
+from slidingarm import _vecmath as VM
+from slidingarm.control import _kernels as CK
+
+#: Lanes of a block: eight float64, one AVX-512 register.
+W = 8
+
+#: The elementary functions of the block loop, inlined into its lane loops
+#: (:mod:`slidingarm._vecmath`, at most 1 ulp each, no libm call): those the scalar loop calls
+#: (:func:`slidingarm.models._kernels.sincos`, :func:`slidingarm.control._kernels.pow_abs`
+#: and ``tanh``), so that runs are bit-identical.
+sincos = VM.sincos
+pow_abs = VM.pow_abs
+tanh = VM.tanh
+
+_OPT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+@njit(inline="always", **_OPT)
+def _sgn(x: float) -> float:
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+# lane scalars: ws[_L_X + ln]
+_L_PHI = 0 * W
+_L_W = 1 * W
+_L_WD = 2 * W
+_L_AX = 3 * W
+_L_AY = 4 * W
+_L_FX = 5 * W
+_L_FY = 6 * W
+_L_MOM = 7 * W
+_L_OK = 8 * W
+_L_ALIVE = 9 * W
+_L_DELTA = 10 * W
+_L_FAR = 11 * W
+_L_BAD = 12 * W
+_L_CODE = 13 * W
+_L_JOINT = 14 * W
+_L_G = 15 * W
+_L_MG = 16 * W
+_L_T0 = 17 * W
+_L_T1 = 18 * W
+_L_T2 = 19 * W
+_L_T3 = 20 * W
+_L_T4 = 21 * W
+_L_T5 = 22 * W
+_L_T6 = 23 * W
+_L_T7 = 24 * W
+_L_T8 = 25 * W
+_NLV = 26
+#: Start of the per-joint rows: ws[J0 + i JS + _X + ln] for joint i.
+J0 = _NLV * W
+_Q = 0 * W
+_QD = 1 * W
+_QM = 2 * W
+_QDM = 3 * W
+_QMP = 4 * W
+_Z0 = 5 * W
+_ST = 6 * W
+_TAPP = 7 * W
+_S = 8 * W
+_NU = 9 * W
+_ACC = 10 * W
+_TAU = 11 * W
+_LC = 12 * W
+_LS = 13 * W
+_R2 = 14 * W
+_R3 = 15 * W
+_R4 = 16 * W
+_K0 = 17 * W
+_K1 = 18 * W
+_K2 = 19 * W
+_K3 = 20 * W
+_KX = 21 * W
+_DQ = 22 * W
+_QT = 23 * W
+_VT = 24 * W
+_BC = 25 * W
+_BS = 26 * W
+_AC = 27 * W
+_AS = 28 * W
+_A2 = 29 * W
+_A3 = 30 * W
+_A4 = 31 * W
+_A5 = 32 * W
+_A6 = 33 * W
+_DC = 34 * W
+_DS = 35 * W
+_EPSG = 36 * W
+_TMP = 37 * W
+_TMP2 = 38 * W
+_TMP3 = 39 * W
+_MADD = 40 * W
+_MHOLD = 41 * W
+_DIST = 42 * W
+_PM = 43 * W
+_PL = 44 * W
+_PC = 45 * W
+_PI = 46 * W
+_MM = 47 * W
+_ML = 48 * W
+_MC = 49 * W
+_MI = 50 * W
+_CFA = 51 * W
+_CFB = 52 * W
+_CFG = 53 * W
+_CFK = 54 * W
+_CFW = 55 * W
+_CFK2 = 56 * W
+_CFE = 57 * W
+_VF0 = 58 * W
+_VF1 = 59 * W
+_VF2 = 60 * W
+_VF3 = 61 * W
+_TMAX = 62 * W
+_Q0 = 63 * W
+_QD0 = 64 * W
+#: First metric accumulator row (rows M_* follow, per joint).
+_MACC = 65
+M_SE2 = 0
+M_SE2C = 1
+M_IAE = 2
+M_IAEC = 3
+M_ITAE = 4
+M_ITAEC = 5
+M_EFF = 6
+M_EFFC = 7
+M_CHAT = 8
+M_CHATC = 9
+M_PEAK = 10
+M_SSE = 11
+M_FINAL = 12
+M_S_LAST = 13
+M_S_XK = 14
+M_S_XK1 = 15
+M_E_LAST = 16
+M_E_XK = 17
+M_E_XK1 = 18
+M_PAE = 19
+M_PWE = 20
+M_PTAU = 21
+NACC = 22
+_NJR = _MACC + NACC
+#: Stride of one joint's rows.
+JS = _NJR * W
+#: ``o & _NONNEG`` is ``o`` for any offset here, and tells LLVM that an index built on it is not
+#: negative, so that numba's wraparound of negative indices (a compare and a select per
+#: access, which also stops the vectoriser) compiles away.
+_NONNEG = 2**40 - 1
+_A_SE2 = (_MACC + M_SE2) * W
+_A_SE2C = (_MACC + M_SE2C) * W
+_A_IAE = (_MACC + M_IAE) * W
+_A_IAEC = (_MACC + M_IAEC) * W
+_A_ITAE = (_MACC + M_ITAE) * W
+_A_ITAEC = (_MACC + M_ITAEC) * W
+_A_EFF = (_MACC + M_EFF) * W
+_A_EFFC = (_MACC + M_EFFC) * W
+_A_CHAT = (_MACC + M_CHAT) * W
+_A_CHATC = (_MACC + M_CHATC) * W
+_A_PEAK = (_MACC + M_PEAK) * W
+_A_SSE = (_MACC + M_SSE) * W
+_A_FINAL = (_MACC + M_FINAL) * W
+_A_S_LAST = (_MACC + M_S_LAST) * W
+_A_S_XK = (_MACC + M_S_XK) * W
+_A_S_XK1 = (_MACC + M_S_XK1) * W
+_A_E_LAST = (_MACC + M_E_LAST) * W
+_A_E_XK = (_MACC + M_E_XK) * W
+_A_E_XK1 = (_MACC + M_E_XK1) * W
+_A_PAE = (_MACC + M_PAE) * W
+_A_PWE = (_MACC + M_PWE) * W
+_A_PTAU = (_MACC + M_PTAU) * W
+
+
+def workspace_size(n: int) -> int:
+    """Length of the flat workspace of a block of ``n``-joint runs."""
+    return J0 + n * JS
+
+
+@njit(inline="always", **_OPT)
+def _neumaier(ws: np.ndarray, at: int, x: float) -> None:
+    """Add ``x`` to the compensated sum ``ws[at]`` (its compensation at ``ws[at + W]``)."""
+    s = ws[at]
+    t = s + x
+    c1 = (s - t) + x
+    c2 = (x - t) + s
+    ws[at + W] += c1 if abs(s) >= abs(x) else c2
+    ws[at] = t
+
+
+@njit(**_OPT)
+def _angles_law(ws: np.ndarray, n: int) -> None:
+    """Cosines and sines of the absolute angles of the measurement ``_QM`` into ``_LC``,
+    ``_LS`` (:func:`slidingarm.models._kernels.angles_into` per lane)."""
+    for ln in range(W):
+        ws[_L_PHI + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[_L_PHI + ln] += ws[o + _QM + ln]
+        for ln in range(W):
+            sv, cv = sincos(ws[_L_PHI + ln])
+            ws[o + _LC + ln] = cv
+            ws[o + _LS + ln] = sv
+
+
+@njit(**_OPT)
+def _angles_state(ws: np.ndarray, n: int) -> None:
+    """Angles of the state ``_Q`` into the RK4 base rows ``_BC``, ``_BS``."""
+    for ln in range(W):
+        ws[_L_PHI + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[_L_PHI + ln] += ws[o + _Q + ln]
+        for ln in range(W):
+            sv, cv = sincos(ws[_L_PHI + ln])
+            ws[o + _BC + ln] = cv
+            ws[o + _BS + ln] = sv
+
+
+@njit(**_OPT)
+def _angles_stage(ws: np.ndarray, n: int) -> None:
+    """Angles of a stage's position ``_QT`` into ``_DC``, ``_DS``."""
+    for ln in range(W):
+        ws[_L_PHI + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[_L_PHI + ln] += ws[o + _QT + ln]
+        for ln in range(W):
+            sv, cv = sincos(ws[_L_PHI + ln])
+            ws[o + _DC + ln] = cv
+            ws[o + _DS + ln] = sv
+
+
+@njit(**_OPT)
+def _rnea(ws: np.ndarray, n: int) -> None:
+    """Planar RNEA of the nominal model per lane
+    (:func:`slidingarm.models._kernels._rnea_from_angles`, ``qdd_scale = 1``): ``tau =
+    M(q_m) acc + h(q_m, qd_m)`` into ``_TAU``, from the angles in ``_LC``, ``_LS``."""
+    for ln in range(W):
+        ws[_L_W + ln] = 0.0
+        ws[_L_WD + ln] = 0.0
+        ws[_L_AX + ln] = 0.0
+        ws[_L_AY + ln] = ws[_L_MG + ln]
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            w = ws[_L_W + ln] + ws[o + _QDM + ln]
+            wd = ws[_L_WD + ln] + ws[o + _ACC + ln]
+            c = ws[o + _MC + ln]
+            l_i = ws[o + _ML + ln]
+            cphi = ws[o + _LC + ln]
+            sphi = ws[o + _LS + ln]
+            ax = ws[_L_AX + ln]
+            ay = ws[_L_AY + ln]
+            ws[o + _R2 + ln] = ax + wd * (-c * sphi) - w * w * c * cphi
+            ws[o + _R3 + ln] = ay + wd * (c * cphi) - w * w * c * sphi
+            ws[o + _R4 + ln] = wd
+            ws[_L_AX + ln] = ax + wd * (-l_i * sphi) - w * w * l_i * cphi
+            ws[_L_AY + ln] = ay + wd * (l_i * cphi) - w * w * l_i * sphi
+            ws[_L_W + ln] = w
+            ws[_L_WD + ln] = wd
+    for ln in range(W):
+        ws[_L_FX + ln] = 0.0
+        ws[_L_FY + ln] = 0.0
+        ws[_L_MOM + ln] = 0.0
+    for ii in range(n):
+        i = n - 1 - ii
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            m = ws[o + _MM + ln]
+            c = ws[o + _MC + ln]
+            l_i = ws[o + _ML + ln]
+            cphi = ws[o + _LC + ln]
+            sphi = ws[o + _LS + ln]
+            gx = m * ws[o + _R2 + ln]
+            gy = m * ws[o + _R3 + ln]
+            fx = ws[_L_FX + ln]
+            fy = ws[_L_FY + ln]
+            mom = (
+                ws[o + _MI + ln] * ws[o + _R4 + ln]
+                + c * (cphi * gy - sphi * gx)
+                + l_i * (cphi * fy - sphi * fx)
+                + ws[_L_MOM + ln]
+            )
+            ws[_L_FX + ln] = fx + gx
+            ws[_L_FY + ln] = fy + gy
+            ws[_L_MOM + ln] = mom
+            ws[o + _TAU + ln] = mom
+
+
+@njit(**_OPT)
+def _aba(ws: np.ndarray, n: int) -> None:
+    """Planar ABA of the plant per lane
+    (:func:`slidingarm.models._kernels.aba_from_angles_into`): the acceleration at velocity
+    ``_VT``, input ``_TAPP`` and the angles in ``_AC``, ``_AS`` into ``_KX``; a pivot that
+    is not positive clears ``_L_OK``."""
+    for ln in range(W):
+        ws[_L_W + ln] = 0.0
+        ws[_L_T0 + ln] = 0.0
+        ws[_L_T1 + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            w = ws[_L_W + ln] + ws[o + _VT + ln]
+            vx = ws[_L_T0 + ln]
+            vy = ws[_L_T1 + ln]
+            ws[o + _A2 + ln] = w
+            ws[o + _A3 + ln] = vx
+            ws[o + _A4 + ln] = vy
+            ws[_L_T0 + ln] = vx - w * ws[o + _PL + ln] * ws[o + _AS + ln]
+            ws[_L_T1 + ln] = vy + w * ws[o + _PL + ln] * ws[o + _AC + ln]
+            ws[_L_W + ln] = w
+    # pass 2, tip to base. The child's articulated quantities are kept unmoved in lane rows
+    # T3..T8 (dd, de, df, pa1, pa2 and its tau) and moved to joint i at the start of joint
+    # i's iteration, with joint i's own r = l_i u_i: the same operations as the scalar
+    # kernel's move at the end of the child's iteration, with no index below joint i.
+    for ii in range(n):
+        i = n - 1 - ii
+        o = (J0 + i * JS) & _NONNEG
+        if ii == 0:
+            for ln in range(W):
+                ws[_L_T0 + ln] = 0.0
+                ws[_L_T1 + ln] = 0.0
+                ws[_L_T2 + ln] = 0.0
+                ws[_L_T3 + ln] = 0.0
+                ws[_L_T4 + ln] = 0.0
+                ws[_L_T5 + ln] = 0.0
+                ws[_L_T6 + ln] = 0.0
+                ws[_L_T7 + ln] = 0.0
+                ws[_L_T8 + ln] = 0.0
+        else:
+            for ln in range(W):
+                dd = ws[_L_T3 + ln]
+                de = ws[_L_T4 + ln]
+                df = ws[_L_T5 + ln]
+                pa1 = ws[_L_T7 + ln]
+                pa2 = ws[_L_T8 + ln]
+                tau_c = ws[_L_T6 + ln]
+                rx = ws[o + _PL + ln] * ws[o + _AC + ln]
+                ry = ws[o + _PL + ln] * ws[o + _AS + ln]
+                cb = rx * de - ry * dd
+                cc = rx * df - ry * de
+                ws[_L_T0 + ln] = rx * cc - ry * cb
+                ws[_L_T1 + ln] = cb
+                ws[_L_T2 + ln] = cc
+                ws[_L_T6 + ln] = tau_c + rx * pa2 - ry * pa1
+        for ln in range(W):
+            ca = ws[_L_T0 + ln]
+            cb = ws[_L_T1 + ln]
+            cc = ws[_L_T2 + ln]
+            cd = ws[_L_T3 + ln]
+            ce = ws[_L_T4 + ln]
+            cf = ws[_L_T5 + ln]
+            p0 = ws[_L_T6 + ln]
+            p1 = ws[_L_T7 + ln]
+            p2 = ws[_L_T8 + ln]
+            m = ws[o + _PM + ln]
+            c = ws[o + _PC + ln]
+            wi = ws[o + _A2 + ln]
+            vxi = ws[o + _A3 + ln]
+            vyi = ws[o + _A4 + ln]
+            ia = ws[o + _PI + ln] + m * c * c
+            ib = -m * c * ws[o + _AS + ln]
+            ic = m * c * ws[o + _AC + ln]
+            fx = ib * wi + m * vxi
+            fy = ic * wi + m * vyi
+            d = ia + ca
+            ib += cb
+            ic += cc
+            dd = m + cd
+            de = ce
+            df = m + cf
+            pa0 = vxi * fy - vyi * fx + p0
+            pa1 = -wi * fy + p1
+            pa2 = wi * fx + p2
+            ok = ws[_L_OK + ln]
+            ws[_L_OK + ln] = ok if d > 0.0 else 0.0
+            dinv = 1.0 / d
+            tau_i = ws[o + _TAPP + ln]
+            u = tau_i - pa0
+            ws[o + _KX + ln] = u
+            qdi = ws[o + _VT + ln]
+            cvx = vyi * qdi
+            cvy = -vxi * qdi
+            ws[o + _A2 + ln] = dinv
+            ws[o + _A3 + ln] = cvx
+            ws[o + _A4 + ln] = cvy
+            ws[o + _A5 + ln] = ib
+            ws[o + _A6 + ln] = ic
+            # what the parent's iteration needs, if there is a parent
+            bd = ib * dinv
+            cdv = ic * dinv
+            dd -= ib * bd
+            de -= ib * cdv
+            df -= ic * cdv
+            ud = u * dinv
+            pa1 += dd * cvx + de * cvy + ib * ud
+            pa2 += de * cvx + df * cvy + ic * ud
+            ws[_L_T3 + ln] = dd
+            ws[_L_T4 + ln] = de
+            ws[_L_T5 + ln] = df
+            ws[_L_T6 + ln] = tau_i
+            ws[_L_T7 + ln] = pa1
+            ws[_L_T8 + ln] = pa2
+    # pass 3, base to tip: alpha in T0, ax in T1, ay in T2; the parent's l, sin, cos in T3..T5
+    for ln in range(W):
+        ws[_L_T0 + ln] = 0.0
+        ws[_L_T1 + ln] = 0.0
+        ws[_L_T2 + ln] = ws[_L_G + ln]
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        if i > 0:
+            for ln in range(W):
+                alpha = ws[_L_T0 + ln]
+                ws[_L_T1 + ln] += ws[o + _A3 + ln] - alpha * ws[_L_T3 + ln] * ws[_L_T4 + ln]
+                ws[_L_T2 + ln] += ws[o + _A4 + ln] + alpha * ws[_L_T3 + ln] * ws[_L_T5 + ln]
+        for ln in range(W):
+            alpha = ws[_L_T0 + ln]
+            ax = ws[_L_T1 + ln]
+            ay = ws[_L_T2 + ln]
+            alpha_i = (ws[o + _KX + ln] - ws[o + _A5 + ln] * ax - ws[o + _A6 + ln] * ay) * ws[o + _A2 + ln]
+            ws[o + _KX + ln] = alpha_i - alpha
+            ws[_L_T0 + ln] = alpha_i
+            ws[_L_T3 + ln] = ws[o + _PL + ln]
+            ws[_L_T4 + ln] = ws[o + _AS + ln]
+            ws[_L_T5 + ln] = ws[o + _AC + ln]
+
+
+_R6 = 1.0 / 6.0
+_R12 = 1.0 / 12.0
+_R20 = 1.0 / 20.0
+_R30 = 1.0 / 30.0
+_R42 = 1.0 / 42.0
+_R56 = 1.0 / 56.0
+
+
+@njit(**_OPT)
+def _stage_angles(ws: np.ndarray, n: int) -> None:
+    """Angles of the stage position ``_QT`` into ``_AC``, ``_AS``: the base angles rotated by
+    the summed steps ``_DQ`` (:func:`slidingarm.models._kernels.shifted_angles_into` per
+    lane); a lane whose summed step exceeds ``2**-5`` takes the direct sines and cosines."""
+    for ln in range(W):
+        ws[_L_DELTA + ln] = 0.0
+        ws[_L_FAR + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
+            ws[_L_DELTA + ln] = delta
+            far = ws[_L_FAR + ln]
+            ws[_L_FAR + ln] = far if abs(delta) <= 0.03125 else 1.0
+    anyfar = False
+    for ln in range(W):
+        anyfar |= ws[_L_FAR + ln] != 0.0
+    if anyfar:
+        _angles_stage(ws, n)
+    for ln in range(W):
+        ws[_L_DELTA + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
+            ws[_L_DELTA + ln] = delta
+            c = ws[o + _BC + ln]
+            s = ws[o + _BS + ln]
+            d2 = delta * delta
+            sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
+            cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
+            ws[o + _AC + ln] = c + (c * cos_m1 - s * sin_d)
+            ws[o + _AS + ln] = s + (s * cos_m1 + c * sin_d)
+        if anyfar:
+            for ln in range(W):
+                far = ws[_L_FAR + ln] != 0.0
+                rc = ws[o + _AC + ln]
+                rs = ws[o + _AS + ln]
+                dc = ws[o + _DC + ln]
+                ds = ws[o + _DS + ln]
+                ws[o + _AC + ln] = dc if far else rc
+                ws[o + _AS + ln] = ds if far else rs
+
+
+@njit(inline="always", **_OPT)
+def _stage(ws: np.ndarray, n: int, c: float, h: float, first: bool, kprev: int, kprev2: int) -> None:
+    """Stage input of RK4 (:func:`slidingarm.models._kernels.rk4_step`): position ``q + c h
+    v`` into ``_QT`` (its step into ``_DQ``), velocity ``qd + c h k_prev`` into ``_VT``."""
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            qd = ws[o + _QD + ln]
+            v_alt = qd + 0.5 * h * ws[o + kprev2 + ln]
+            v_prev = qd if first else v_alt
+            dq = c * h * v_prev
+            ws[o + _DQ + ln] = dq
+            ws[o + _QT + ln] = ws[o + _Q + ln] + dq
+            ws[o + _VT + ln] = qd + c * h * ws[o + kprev + ln]
+
+
+@njit(inline="always", **_OPT)
+def _keep_stage(ws: np.ndarray, n: int, krow: int) -> None:
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + krow + ln] = ws[o + _KX + ln]
+
+
+@njit(**_OPT)
+def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
+    """One RK4 step of every lane (:func:`slidingarm.models._kernels.rk4_step`); ``known``:
+    ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _VT + ln] = ws[o + _QD + ln]
+    if known:
+        for i in range(n):
+            o = (J0 + i * JS) & _NONNEG
+            for ln in range(W):
+                ws[o + _BC + ln] = ws[o + _LC + ln]
+                ws[o + _BS + ln] = ws[o + _LS + ln]
+    else:
+        _angles_state(ws, n)
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _AC + ln] = ws[o + _BC + ln]
+            ws[o + _AS + ln] = ws[o + _BS + ln]
+    _aba(ws, n)
+    _keep_stage(ws, n, _K0)
+    _stage(ws, n, 0.5, h, True, _K0, _K0)
+    _stage_angles(ws, n)
+    _aba(ws, n)
+    _keep_stage(ws, n, _K1)
+    _stage(ws, n, 0.5, h, False, _K1, _K0)
+    _stage_angles(ws, n)
+    _aba(ws, n)
+    _keep_stage(ws, n, _K2)
+    _stage(ws, n, 1.0, h, False, _K2, _K1)
+    _stage_angles(ws, n)
+    _aba(ws, n)
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            qd = ws[o + _QD + ln]
+            k0 = ws[o + _K0 + ln]
+            k1 = ws[o + _K1 + ln]
+            k2 = ws[o + _K2 + ln]
+            k3 = ws[o + _KX + ln]
+            v1 = qd
+            v2 = qd + 0.5 * h * k0
+            v3 = qd + 0.5 * h * k1
+            v4 = qd + h * k2
+            ws[o + _Q + ln] += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
+            ws[o + _QD + ln] = qd + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3)
+
+
+@njit(**_OPT)
+def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, classic: bool,
+         dt: float, q_ref: np.ndarray, qd_ref: np.ndarray, qdd_ref: np.ndarray) -> None:  # fmt: skip
+    """The sliding-mode law with ``law = model`` per lane
+    (:func:`slidingarm.control._kernels.control_into`): ``s`` into ``_S``, the torque into
+    ``_TAU``, the angles of the measurement into ``_LC``, ``_LS``."""
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        qr = q_ref[k, j]
+        qdr = qd_ref[k, j]
+        if fast_terminal:
+            for ln in range(W):
+                ws[o + _TMP + ln] = ws[o + _QM + ln] - qr
+            for ln in range(W):
+                ws[o + _TMP2 + ln] = pow_abs(ws[o + _TMP + ln], ws[o + _CFG + ln])
+            for ln in range(W):
+                ej = ws[o + _TMP + ln]
+                edj = ws[o + _QDM + ln] - qdr
+                alpha = ws[o + _CFA + ln]
+                beta = ws[o + _CFB + ln]
+                gamma = ws[o + _CFG + ln]
+                eps_e = ws[o + _CFE + ln]
+                pw = ws[o + _TMP2 + ln]
+                ae = abs(ej)
+                sg = 1.0 if ej > 0.0 else (-1.0 if ej < 0.0 else 0.0)
+                s0 = edj + alpha * ej
+                s1 = s0 + beta * pw * sg
+                g_far = alpha + beta * gamma * pw / ae
+                g_near = alpha + beta * gamma * ws[o + _EPSG + ln]
+                g1 = g_far if ae >= eps_e else g_near
+                terminal = beta != 0.0
+                s = s1 if terminal else s0
+                gain = g1 if terminal else alpha
+                ws[o + _S + ln] = s
+                ws[o + _NU + ln] = gain * edj
+        else:
+            for ln in range(W):
+                ws[o + _TMP + ln] = ws[o + _QDM + ln] - qdr
+            for ln in range(W):
+                ws[o + _TMP2 + ln] = pow_abs(ws[o + _TMP + ln], ws[o + _CFG + ln])
+            for ln in range(W):
+                ws[o + _TMP3 + ln] = pow_abs(ws[o + _TMP + ln], 2.0 - ws[o + _CFG + ln])
+            for ln in range(W):
+                ej = ws[o + _QM + ln] - qr
+                edj = ws[o + _TMP + ln]
+                sg = 1.0 if edj > 0.0 else (-1.0 if edj < 0.0 else 0.0)
+                beta = ws[o + _CFB + ln]
+                gamma = ws[o + _CFG + ln]
+                ws[o + _S + ln] = ej + ws[o + _TMP2 + ln] * sg / beta
+                ws[o + _NU + ln] = beta / gamma * ws[o + _TMP3 + ln] * sg
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        if swcode == CK.SWITCH_TANH:
+            for ln in range(W):
+                ws[o + _TMP + ln] = tanh(ws[o + _S + ln] / ws[o + _CFW + ln])
+        else:
+            sign = swcode == CK.SWITCH_SIGN
+            for ln in range(W):
+                s = ws[o + _S + ln]
+                x = s / ws[o + _CFW + ln]
+                sat = 1.0 if x > 1.0 else (-1.0 if x < -1.0 else x)
+                sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+                ws[o + _TMP + ln] = sg if sign else sat
+        qddr = qdd_ref[k, j]
+        if classic:
+            for ln in range(W):
+                r = ws[o + _CFK + ln] * ws[o + _TMP + ln]
+                ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
+        else:
+            for ln in range(W):
+                s = ws[o + _S + ln]
+                sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+                r = ws[o + _CFK + ln] * math.sqrt(abs(s)) * sg + ws[o + _ST + ln]
+                ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
+                ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
+    _angles_law(ws, n)
+    _rnea(ws, n)
+
+
+@njit(**_OPT)
+def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bool) -> bool:
+    """Measurement (``_QM``, from the added and held rows ``_MADD``, ``_MHOLD``) and velocity
+    estimate (``_QDM``) per lane, as :func:`slidingarm._engine.control_sample`; whether every
+    lane's measurement equals its state."""
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            v = ws[o + _Q + ln] + ws[o + _MADD + ln]
+            held = ws[o + _QMP + ln]
+            hold = has_hold and k > 0 and ws[o + _MHOLD + ln] != 0.0
+            ws[o + _QM + ln] = held if hold else v
+    if vcode == E.VEL_TRUE or k == 0:
+        for j in range(n):
+            o = (J0 + j * JS) & _NONNEG
+            for ln in range(W):
+                ws[o + _QDM + ln] = ws[o + _QD + ln]
+            if vcode != E.VEL_TRUE:
+                for ln in range(W):
+                    ws[o + _Z0 + ln] = ws[o + _QM + ln]
+    elif vcode == E.VEL_DIFFERENCE:
+        for j in range(n):
+            o = (J0 + j * JS) & _NONNEG
+            for ln in range(W):
+                ws[o + _QDM + ln] = (ws[o + _QM + ln] - ws[o + _QMP + ln]) / dt
+    elif vcode == E.VEL_FILTERED:
+        for j in range(n):
+            o = (J0 + j * JS) & _NONNEG
+            for ln in range(W):
+                tf = ws[o + _VF0 + E.VF_TIME_CONSTANT * W + ln]
+                ws[o + _QDM + ln] = (tf * ws[o + _QDM + ln] + (ws[o + _QM + ln] - ws[o + _QMP + ln])) / (tf + dt)
+    else:
+        for j in range(n):
+            o = (J0 + j * JS) & _NONNEG
+            for ln in range(W):
+                lip = ws[o + _VF0 + E.VF_LIPSCHITZ * W + ln]
+                sigma = ws[o + _Z0 + ln] - ws[o + _QM + ln]
+                sg = 1.0 if sigma > 0.0 else (-1.0 if sigma < 0.0 else 0.0)
+                qdm = ws[o + _QDM + ln]
+                ws[o + _Z0 + ln] += dt * (
+                    -ws[o + _VF0 + E.VF_LAMBDA1 * W + ln] * math.sqrt(lip * abs(sigma)) * sg + qdm
+                )
+                ws[o + _QDM + ln] = qdm + dt * (-ws[o + _VF0 + E.VF_LAMBDA0 * W + ln] * lip * sg)
+    exact = True
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _QMP + ln] = ws[o + _QM + ln]
+            exact &= ws[o + _QM + ln] == ws[o + _Q + ln]
+    return exact
+
+
+@njit(**_OPT)
+def _clip(ws: np.ndarray, n: int) -> None:
+    """Torque limits, the held input ``tau + d`` (``_DIST``), and in ``_L_BAD`` the first
+    joint whose torque or ``s`` is not finite (-1: none), per lane."""
+    for ln in range(W):
+        ws[_L_BAD + ln] = -1.0
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            t_j = ws[o + _TAU + ln]
+            lim = ws[o + _TMAX + ln]
+            nlim = -lim
+            t_c = lim if t_j > lim else (nlim if t_j < nlim else t_j)
+            ws[o + _TAU + ln] = t_c
+            ws[o + _TAPP + ln] = t_c + ws[o + _DIST + ln]
+            fin = math.isfinite(t_c) and math.isfinite(ws[o + _S + ln])
+            bad = ws[_L_BAD + ln]
+            ws[_L_BAD + ln] = float(j) if (bad < 0.0 and not fin) else bad
+
+
+@njit(**_OPT)
+def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
+    """:func:`slidingarm._engine.check_state` per lane into ``_L_CODE``, ``_L_JOINT``."""
+    for ln in range(W):
+        ws[_L_CODE + ln] = E.STATUS_OK
+        ws[_L_JOINT + ln] = -1.0
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            fin = math.isfinite(ws[o + _Q + ln]) and math.isfinite(ws[o + _QD + ln])
+            code = ws[_L_CODE + ln]
+            first = code == E.STATUS_OK and not fin
+            ws[_L_CODE + ln] = E.STATUS_NONFINITE if first else code
+            joint = ws[_L_JOINT + ln]
+            ws[_L_JOINT + ln] = float(j) if first else joint
+    for ln in range(W):
+        code = ws[_L_CODE + ln]
+        sing = code == E.STATUS_OK and ws[_L_OK + ln] == 0.0
+        ws[_L_CODE + ln] = E.STATUS_SINGULAR if sing else code
+        joint = ws[_L_JOINT + ln]
+        ws[_L_JOINT + ln] = 0.0 if sing else joint
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            code = ws[_L_CODE + ln]
+            run = code == E.STATUS_OK and abs(ws[o + _QD + ln]) > qd_limit
+            ws[_L_CODE + ln] = E.STATUS_RUNAWAY if run else code
+            joint = ws[_L_JOINT + ln]
+            ws[_L_JOINT + ln] = float(j) if run else joint
+
+
+@njit(**_OPT)
+def _stream_metrics(ws: np.ndarray, n: int, tgrid: np.ndarray, q_ref: np.ndarray, k: int,
+                    delta_s: float, delta_e: float, start: int) -> None:  # fmt: skip
+    """Sample ``k``'s part of every streamed metric (see :func:`finish_metrics`)."""
+    nt = tgrid.shape[0]
+    wt = tgrid[k] - tgrid[0]
+    dtk = tgrid[k] - tgrid[k - 1] if k > 0 else 0.0
+    dtn = tgrid[k + 1] - tgrid[k] if k < nt - 1 else 0.0
+    fk = float(k)
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        qr = q_ref[k, j]
+        for ln in range(W):
+            e = ws[o + _Q + ln] - qr
+            ae = abs(e)
+            _neumaier(ws, o + _A_SE2 + ln, e * e)
+            ws[o + _A_FINAL + ln] = e
+            # last sample outside the band, the value there and at the next sample
+            s = ws[o + _S + ln]
+            so = abs(s) > delta_s
+            last = ws[o + _A_S_LAST + ln]
+            x1 = ws[o + _A_S_XK1 + ln]
+            x1 = s if fk == last + 1.0 else x1
+            ws[o + _A_S_XK1 + ln] = s if so else x1
+            ws[o + _A_S_LAST + ln] = fk if so else last
+            xk = ws[o + _A_S_XK + ln]
+            ws[o + _A_S_XK + ln] = s if so else xk
+            eo = ae > delta_e
+            last = ws[o + _A_E_LAST + ln]
+            x1 = ws[o + _A_E_XK1 + ln]
+            x1 = e if fk == last + 1.0 else x1
+            ws[o + _A_E_XK1 + ln] = e if eo else x1
+            ws[o + _A_E_LAST + ln] = fk if eo else last
+            xk = ws[o + _A_E_XK + ln]
+            ws[o + _A_E_XK + ln] = e if eo else xk
+        if k > 0:
+            for ln in range(W):
+                ae = abs(ws[o + _Q + ln] - qr)
+                _neumaier(ws, o + _A_IAE + ln, (ae + ws[o + _A_PAE + ln]) * dtk)
+                _neumaier(ws, o + _A_ITAE + ln, (wt * ae + ws[o + _A_PWE + ln]) * dtk)
+        for ln in range(W):
+            ae = abs(ws[o + _Q + ln] - qr)
+            ws[o + _A_PAE + ln] = ae
+            ws[o + _A_PWE + ln] = wt * ae
+        if k < nt - 1:
+            for ln in range(W):
+                tau = ws[o + _TAU + ln]
+                _neumaier(ws, o + _A_EFF + ln, tau * tau * dtn)
+                ws[o + _A_PEAK + ln] = max(ws[o + _A_PEAK + ln], abs(tau))
+            if k > 0:
+                for ln in range(W):
+                    tau = ws[o + _TAU + ln]
+                    _neumaier(ws, o + _A_CHAT + ln, abs(tau - ws[o + _A_PTAU + ln]))
+            for ln in range(W):
+                ws[o + _A_PTAU + ln] = ws[o + _TAU + ln]
+        if k >= start:
+            for ln in range(W):
+                ws[o + _A_SSE + ln] = max(ws[o + _A_SSE + ln], abs(ws[o + _Q + ln] - qr))
+
+
+@njit(**_OPT)
+def _reset_lane(ws: np.ndarray, n: int, ln: int) -> None:
+    """A failed lane restarts from its initial state: finite values, which cost what a live
+    lane's cost; nothing it computes is written any more."""
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        q0 = ws[o + _Q0 + ln]
+        qd0 = ws[o + _QD0 + ln]
+        ws[o + _Q + ln] = q0
+        ws[o + _QD + ln] = qd0
+        ws[o + _QM + ln] = q0
+        ws[o + _QMP + ln] = q0
+        ws[o + _QDM + ln] = qd0
+        ws[o + _Z0 + ln] = q0
+        ws[o + _ST + ln] = 0.0
+
+
+@njit(**_OPT)
+def run_block(
+    lanes: np.ndarray,
+    local: np.ndarray,
+    pp: np.ndarray,
+    pg: np.ndarray,
+    codes: np.ndarray,
+    cf: np.ndarray,
+    mp: np.ndarray,
+    mg: np.ndarray,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    tgrid: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    madd: np.ndarray,
+    mhold: np.ndarray,
+    vcode: int,
+    vfb: np.ndarray,
+    dist: np.ndarray,
+    tmax: np.ndarray,
+    dt: float,
+    substeps: int,
+    qd_limit: float,
+    stride: int,
+    q_b: np.ndarray,
+    qd_b: np.ndarray,
+    qm_b: np.ndarray,
+    qdm_b: np.ndarray,
+    tau_b: np.ndarray,
+    s_b: np.ndarray,
+    metrics: bool,
+    bands: np.ndarray,
+    acc: np.ndarray,
+    tau_trace: np.ndarray,
+    status: np.ndarray,
+) -> None:
+    """``W`` closed-loop runs of planar plants ``pp`` (4, n, W) (gravity ``pg`` (W,)) under
+    the sliding-mode law with codes ``codes`` (``CK.NCI``,) and table ``cf`` (``CK.NCF``, n,
+    W), nominal models ``mp`` (4, n, W), ``mg`` (W,); see the module docstring. ``q0, qd0,
+    tmax`` are (n, W), ``vfb`` (NVF, n, W).
+
+    Lane ``ln`` is run ``lanes[ln]`` of the batch: it writes its recorded samples (every
+    ``stride``-th; none if ``stride == 0``) to ``q_b[lanes[ln], k // stride]`` etc. (arrays
+    ``(B, K, n)``), its status to ``status[lanes[ln]]`` and, if ``metrics``, its metric
+    accumulators to ``acc[local[ln]]`` ((C, NACC, n)) and its torque to
+    ``tau_trace[local[ln]]`` ((C, T, n)), ``local`` indexing the caller's chunk of runs. Two
+    lanes may be the same run (a padded block): they compute and write the same values.
+    ``madd``, ``mhold``, ``dist`` are ``(T, n, W)``, or ``(0, n, W)`` when no lane has any
+    (then the measurement is ``q + 0.0`` and the input ``tau + 0.0``, as the scalar loop
+    computes them with its zero arrays). ``bands`` is ``(delta_s, delta_e, start)``: the
+    metrics' bands and the first sample of the steady-state window.
+    """
+    nt = tgrid.shape[0]
+    n = q0.shape[0]
+    h = dt / substeps
+    has_add = madd.shape[0] > 0
+    has_hold = mhold.shape[0] > 0
+    has_dist = dist.shape[0] > 0
+    wsa = np.zeros(J0 + n * JS)
+    ws = E._borrow(wsa)
+    fast_terminal = codes[CK.CI_SURFACE] == CK.SURFACE_FAST_TERMINAL
+    swcode = codes[CK.CI_SWITCHING]
+    classic = codes[CK.CI_REACHING] == CK.REACH_CLASSIC
+    delta_s = bands[0]
+    delta_e = bands[1]
+    start = int(bands[2])
+    for ln in range(W):
+        ws[_L_G + ln] = pg[ln]
+        ws[_L_MG + ln] = mg[ln]
+        ws[_L_ALIVE + ln] = 1.0
+        status[lanes[ln], 0] = E.STATUS_OK
+        status[lanes[ln], 1] = -1
+        status[lanes[ln], 2] = -1
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _Q0 + ln] = q0[j, ln]
+            ws[o + _QD0 + ln] = qd0[j, ln]
+            ws[o + _Q + ln] = q0[j, ln]
+            ws[o + _QD + ln] = qd0[j, ln]
+            ws[o + _TMAX + ln] = tmax[j, ln]
+            for r in range(4):
+                ws[o + _PM + r * W + ln] = pp[r, j, ln]
+                ws[o + _MM + r * W + ln] = mp[r, j, ln]
+                ws[o + _VF0 + r * W + ln] = vfb[r, j, ln]
+            for r in range(CK.NCF):
+                ws[o + _CFA + r * W + ln] = cf[r, j, ln]
+            ws[o + _EPSG + ln] = cf[CK.CF_EPS_E, j, ln] ** (cf[CK.CF_GAMMA, j, ln] - 1.0)
+            ws[o + _A_S_LAST + ln] = -1.0
+            ws[o + _A_E_LAST + ln] = -1.0
+    for k in range(nt):
+        if has_add or has_hold or has_dist:
+            for j in range(n):
+                o = (J0 + j * JS) & _NONNEG
+                for ln in range(W):
+                    if has_add:
+                        ws[o + _MADD + ln] = madd[k, j, ln]
+                    if has_hold:
+                        ws[o + _MHOLD + ln] = 1.0 if mhold[k, j, ln] else 0.0
+                    if has_dist:
+                        ws[o + _DIST + ln] = dist[k, j, ln]
+        exact = _measure(ws, n, k, vcode, dt, has_hold)
+        _law(ws, n, k, fast_terminal, swcode, classic, dt, q_ref, qd_ref, qdd_ref)
+        _clip(ws, n)
+        if stride > 0 and k % stride == 0:
+            kk = k // stride
+            for ln in range(W):
+                if ws[_L_ALIVE + ln] != 0.0:
+                    b = lanes[ln]
+                    for j in range(n):
+                        o = ((J0 + j * JS) & _NONNEG) + ln
+                        q_b[b, kk, j] = ws[o + _Q]
+                        qd_b[b, kk, j] = ws[o + _QD]
+                        qm_b[b, kk, j] = ws[o + _QM]
+                        qdm_b[b, kk, j] = ws[o + _QDM]
+                        tau_b[b, kk, j] = ws[o + _TAU]
+                        s_b[b, kk, j] = ws[o + _S]
+        if metrics:
+            _stream_metrics(ws, n, tgrid, q_ref, k, delta_s, delta_e, start)
+            for ln in range(W):
+                if ws[_L_ALIVE + ln] != 0.0:
+                    b = local[ln]
+                    for j in range(n):
+                        tau_trace[b, k, j] = ws[J0 + j * JS + _TAU + ln]
+        nalive = 0
+        for ln in range(W):
+            if ws[_L_ALIVE + ln] != 0.0 and ws[_L_BAD + ln] >= 0.0:
+                b = lanes[ln]
+                status[b, 0] = E.STATUS_NONFINITE
+                status[b, 1] = k
+                status[b, 2] = int(ws[_L_BAD + ln])
+                ws[_L_ALIVE + ln] = 0.0
+            if ws[_L_ALIVE + ln] == 0.0:
+                _reset_lane(ws, n, ln)
+            else:
+                nalive += 1
+        if nalive == 0 or k == nt - 1:
+            break
+        # --- plant over [t_k, t_k+1)
+        for ln in range(W):
+            ws[_L_OK + ln] = 1.0
+        for sub in range(substeps):
+            _rk4(ws, n, h, exact and sub == 0)
+        _check(ws, n, qd_limit)
+        nalive = 0
+        for ln in range(W):
+            if ws[_L_ALIVE + ln] != 0.0 and ws[_L_CODE + ln] != E.STATUS_OK:
+                b = lanes[ln]
+                status[b, 0] = int(ws[_L_CODE + ln])
+                status[b, 1] = k + 1
+                status[b, 2] = int(ws[_L_JOINT + ln])
+                ws[_L_ALIVE + ln] = 0.0
+            if ws[_L_ALIVE + ln] == 0.0:
+                _reset_lane(ws, n, ln)
+            else:
+                nalive += 1
+        if nalive == 0:
+            break
+    if metrics:
+        for ln in range(W):
+            if ws[_L_ALIVE + ln] != 0.0:
+                b = local[ln]
+                for r in range(NACC):
+                    for j in range(n):
+                        acc[b, r, j] = ws[J0 + j * JS + (_MACC + r) * W + ln]
+
+
+_compiled = False
+
+
+@contextmanager
+def _slp_vectorised() -> Iterator[None]:
+    """numba's SLP vectoriser on, for a compilation that happens in the block."""
+    saved = _numba_config.SLP_VECTORIZE
+    _numba_config.SLP_VECTORIZE = 1
+    try:
+        yield
+    finally:
+        _numba_config.SLP_VECTORIZE = saved
+
+
+def compiled() -> None:
+    """Compile (or load from the cache) :func:`run_block` with the SLP vectoriser on: it is
+    what turns the unrolled lane loops into vector operations. Called by the batch before its
+    first block; a no-op afterwards."""
+    global _compiled
+    if _compiled:
+        return
+    from numba import types as T
+
+    f8 = T.float64
+    i8 = T.int64
+    a1 = T.Array(f8, 1, "C")
+    a2 = T.Array(f8, 2, "C")
+    a3 = T.Array(f8, 3, "C")
+    sig = (
+        T.Array(i8, 1, "C"), T.Array(i8, 1, "C"), a3, a1, a1, a3, a3, a1, a2, a2, a1, a2, a2,
+        a2, a3, T.Array(T.boolean, 3, "C"), i8, a3, a3, a2, f8, i8, f8, i8, a3, a3, a3, a3,
+        a3, a3, T.boolean, a1, a3, a3, T.Array(i8, 2, "C"),
+    )  # fmt: skip
+    with _slp_vectorised():
+        run_block.compile(sig)
+    _compiled = True
+def _entry_time(t: np.ndarray, last: np.ndarray, xk: np.ndarray, xk1: np.ndarray, delta: float) -> np.ndarray:
+    """:func:`slidingarm.metrics._entry_time` from the streamed last sample outside the band
+    (``-1``: none) and the values there and at the next sample: the same formulas."""
+    nt = t.shape[0]
+    any_out = last >= 0
+    li = np.where(any_out, last, nt - 1).astype(np.int64)
+    nxt = np.minimum(li + 1, nt - 1)
+    level = np.sign(xk) * delta
+    denom = xk - xk1
+    safe = np.where(denom == 0.0, 1.0, denom)
+    frac = np.clip((xk - level) / safe, 0.0, 1.0)
+    t_cross = t[li] + frac * (t[nxt] - t[li])
+    out = np.where(any_out, t_cross, t[0])
+    out = np.where(any_out & (li == nt - 1), np.inf, out)
+    return np.asarray(out, dtype=np.float64)
+
+
+def finish_metrics(
+    t: np.ndarray,
+    acc: np.ndarray,
+    tau_trace: np.ndarray,
+    failed: np.ndarray,
+    *,
+    delta_s: float,
+    delta_e: float,
+    cutoff_hz: float,
+) -> dict[str, np.ndarray]:
+    """The metrics of :func:`slidingarm.results.metric_values` from the streamed accumulators
+    ``acc`` (B, NACC, n) and the applied torques ``tau_trace`` (B, T, n) (its last row unused),
+    NaN for ``failed`` runs."""
+    nt = t.shape[0]
+
+    def total(row: int) -> np.ndarray:
+        return np.asarray(acc[:, row] + acc[:, row + 1])
+
+    mse = total(M_SE2) / nt
+    ok = ~failed
+    trace = np.where(ok[:, None, None], tau_trace, 0.0) if failed.any() else tau_trace
+    table = {
+        "mse": mse,
+        "rmse": np.sqrt(mse),
+        "iae": 0.5 * total(M_IAE),
+        "itae": 0.5 * total(M_ITAE),
+        "reaching_time": _entry_time(t, acc[:, M_S_LAST], acc[:, M_S_XK], acc[:, M_S_XK1], delta_s),
+        "settling_time": _entry_time(t, acc[:, M_E_LAST], acc[:, M_E_XK], acc[:, M_E_XK1], delta_e),
+        "steady_state_error": np.array(acc[:, M_SSE]),
+        "final_error": np.array(acc[:, M_FINAL]),
+        "control_effort": total(M_EFF),
+        "peak_torque": np.array(acc[:, M_PEAK]),
+        "chattering": total(M_CHAT) / (t[-1] - t[0]),
+        "hf_power_share": hf_power_share(t, trace, cutoff_hz),
+    }
+    out = {}
+    for name, v in table.items():
+        arr = np.array(v, dtype=np.float64)
+        arr[failed] = np.nan
+        out[name] = arr
+    return out
+
+
+def hf_power_share(t: np.ndarray, tau: np.ndarray, cutoff_hz: float) -> np.ndarray:
+    """:func:`slidingarm.metrics.hf_power_share` of the torques ``tau`` (C, T, n) on the
+    validated uniform grid ``t``: the same formulas (least-squares detrending, one-sided
+    weighted power of ``rfft`` above ``cutoff_hz`` over all of it, 0 for a flat series), on
+    each series laid out contiguously in time, which makes numpy's reductions and FFT about
+    twice as fast as along the strided axis; the sums may round differently (to ~1e-16)."""
+    from slidingarm import metrics as M
+
+    ta = t[:-1]
+    n_applied = ta.shape[0]
+    dt = float(np.mean(np.diff(t)))
+    if n_applied < 2 or not cutoff_hz < 0.5 / dt:
+        # the metric's own answer (zeros) or error (a cut-off beyond the Nyquist frequency)
+        return np.asarray(M.hf_power_share(t, tau, cutoff_hz=cutoff_hz), dtype=np.float64)
+    applied = np.ascontiguousarray(np.swapaxes(tau[:, :-1, :], 1, 2))  # (C, n, T-1)
+    tc = ta - np.mean(ta)
+    mean = np.mean(applied, axis=-1, keepdims=True)
+    slope = np.sum(tc * (applied - mean), axis=-1, keepdims=True) / np.sum(tc * tc)
+    resid = applied - mean - slope * tc
+    spectrum = np.fft.rfft(resid, axis=-1)
+    power = spectrum.real**2 + spectrum.imag**2
+    weights = np.full(power.shape[-1], 2.0)
+    weights[0] = 1.0
+    if n_applied % 2 == 0:
+        weights[-1] = 1.0
+    freqs = np.fft.rfftfreq(n_applied, d=dt)
+    wp = power * weights
+    total = np.sum(wp, axis=-1)
+    high = np.sum(wp[..., freqs > cutoff_hz], axis=-1)
+    rms = np.sqrt(np.mean(resid * resid, axis=-1))
+    scale = np.max(np.abs(applied), axis=-1)
+    flat = rms <= M._FLAT_RTOL * scale
+    share = np.where(flat, 0.0, high / np.where(flat, 1.0, total))
+    return np.asarray(np.clip(share, 0.0, 1.0), dtype=np.float64)
+
+
+def steady_start(t: np.ndarray, window: float) -> int:
+    """First sample of :func:`slidingarm.metrics.steady_state_error`'s final window."""
+    tol = 1e-9 * (t[-1] - t[0])
+    return int(np.searchsorted(t, t[-1] - window - tol, side="left"))

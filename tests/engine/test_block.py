@@ -1,0 +1,144 @@
+"""The block path (slidingarm._block, issue 12 points 1-2): each run of a block equals the
+scalar path's run bit for bit, failures are named per run, metrics stream to the numpy ones,
+and a batch does not depend on the thread count, the block size or the lane a run lands in.
+
+One compiled block kernel serves every test (short runs, small batches); the scalar path is
+forced by raising ``simulate.BLOCK_MIN_RUNS`` above the batch, the block path by lowering it.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Iterator
+from typing import Any
+
+import numba
+import numpy as np
+import pytest
+
+import slidingarm as sa
+from slidingarm.metrics import METRIC_COLUMNS
+
+S = importlib.import_module("slidingarm.simulate")
+
+ARM = sa.PlanarArm.paper()
+REF = sa.PaperReference()
+DT = 5e-4
+T_FINAL = 0.25
+NOISE = sa.Sensor(
+    noise=sa.GaussianNoise(sigma=1e-4),
+    velocity=sa.sensors.DirtyDerivative(time_constant=0.005),
+)
+SIGNALS = ("q", "qd", "q_meas", "qd_meas", "tau", "s")
+
+
+def ftsmc(switching: str, **kw: Any) -> sa.FTSMC:
+    width = {} if switching == "sign" else {"width": 0.05}
+    gains = {"alpha": 2, "beta": 2, "p": 5, "q": 3, "k": 20, "eps_e": 5e-8, **width, **kw}
+    return sa.FTSMC(ARM, switching=switching, **gains)
+
+
+def q0s(nb: int) -> np.ndarray:
+    return np.asarray(sa.PAPER_Q0) + np.random.default_rng(3).normal(0.0, 0.02, (nb, 3))
+
+
+def run(path: str, *args: Any, **kw: Any) -> sa.BatchResult:
+    """simulate_batch on the ``path`` ("block" or "scalar")."""
+    saved = S.BLOCK_MIN_RUNS
+    S.BLOCK_MIN_RUNS = 1 if path == "block" else 10**9
+    try:
+        return sa.simulate_batch(*args, **kw)
+    finally:
+        S.BLOCK_MIN_RUNS = saved
+
+
+@pytest.fixture(scope="module", params=["sign", "tanh"])
+def paper_pair(request: pytest.FixtureRequest) -> Iterator[tuple[sa.BatchResult, sa.BatchResult]]:
+    """The paper's arm and FTSMC with noise and a dirty derivative, 12 runs (a full block and
+    a padded one), on both paths."""
+    kw = dict(
+        q0=q0s(12), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(40, 52)),
+    )  # fmt: skip
+    ctrl = ftsmc(request.param)
+    yield run("block", ARM, ctrl, REF, **kw), run("scalar", ARM, ctrl, REF, **kw)
+
+
+def test_block_runs_equal_the_scalar_runs(paper_pair: tuple[sa.BatchResult, sa.BatchResult]) -> None:
+    block, scalar = paper_pair
+    assert np.all(block.ok) and np.all(scalar.ok)
+    # the issue's bound, and the design's: the same operations, hence the same bits
+    assert np.max(np.abs(block.q - scalar.q)) <= 1e-9
+    for name in SIGNALS:
+        np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name), err_msg=name)
+    # the runs differ from one another (noise seeds, q0), so lanes were not confused
+    assert np.min(np.abs(np.diff(block.q[:, -1, 0]))) > 0.0
+
+
+def test_block_metrics_and_every_k_equal_the_scalar_ones() -> None:
+    ctrls = [ftsmc("tanh", k=float(k)) for k in np.linspace(15.0, 25.0, 10)]
+    kw = dict(
+        q0=q0s(10), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(10)),
+        disturbances=[[sa.SinusoidalTorque(0.5 + 0.1 * i, 3.0)] for i in range(10)],
+        torque_limit=[None if i % 3 else 40.0 for i in range(10)],
+    )  # fmt: skip
+    for record in ("metrics", sa.Every(7)):
+        block = run("block", ARM, ctrls, REF, record=record, **kw)
+        scalar = run("scalar", ARM, ctrls, REF, record=record, **kw)
+        assert block.metric_values is not None and scalar.metric_values is not None
+        for name in METRIC_COLUMNS:
+            a, b = block.metric_values[name], scalar.metric_values[name]
+            np.testing.assert_array_equal(np.isfinite(a), np.isfinite(b), err_msg=name)
+            fin = np.isfinite(b)
+            np.testing.assert_allclose(a[fin], b[fin], rtol=1e-12, atol=0, err_msg=name)
+        if record != "metrics":
+            for name in SIGNALS:
+                np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name))
+
+
+def test_a_failing_lane_is_named_and_the_others_finish() -> None:
+    nb = 10
+    qd0 = np.zeros((nb, 3))
+    qd0[2] = (30.0, 0.0, 0.0)  # beyond qd_limit at the first check: runaway at sample 1
+    ctrls = [ftsmc("sign") for _ in range(nb)]
+    ctrls[6] = ftsmc("sign", k=1e9)  # a torque that overflows the state within a few samples
+    kw = dict(q0=q0s(nb), qd0=qd0, t_final=T_FINAL, dt=DT, qd_limit=25.0, throw=False)
+    block = run("block", ARM, ctrls, REF, **kw)
+    scalar = run("scalar", ARM, ctrls, REF, **kw)
+    assert np.flatnonzero(~block.ok).tolist() == [2, 6]
+    np.testing.assert_array_equal(block.status_code, scalar.status_code)
+    np.testing.assert_array_equal(block.fail_time, scalar.fail_time)
+    np.testing.assert_array_equal(block.fail_joint, scalar.fail_joint)
+    assert block.messages == scalar.messages
+    assert block.fail_time[2] == DT  # sample 1
+    for name in SIGNALS:
+        np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name), err_msg=name)
+    with pytest.raises(sa.SimulationError, match=r"run 2 of 10"):
+        run("block", ARM, ctrls, REF, **{**kw, "throw": True})
+
+
+def test_a_batch_does_not_depend_on_threads_blocks_or_lanes() -> None:
+    nb = 19
+    ctrls = [ftsmc("sign", k=float(k)) for k in np.linspace(15.0, 25.0, nb)]
+    kw = dict(t_final=T_FINAL, dt=DT, sensor=NOISE, record="metrics")
+    saved = (numba.config.NUMBA_NUM_THREADS, S.BLOCK_CHUNK)
+    results = []
+    try:
+        for threads, chunk in ((1, 1), (2, 1), (2, 4)):
+            numba.config.NUMBA_NUM_THREADS = threads
+            S.BLOCK_CHUNK = chunk
+            results.append(run("block", ARM, ctrls, REF, q0=q0s(nb), seeds=list(range(nb)), **kw))
+    finally:
+        numba.config.NUMBA_NUM_THREADS, S.BLOCK_CHUNK = saved
+    # the same runs at other lanes: the batch reversed, and a part of it (other padding)
+    rev = run("block", ARM, ctrls[::-1], REF, q0=q0s(nb)[::-1], seeds=list(range(nb))[::-1], **kw)
+    part = run("block", ARM, ctrls[5:14], REF, q0=q0s(nb)[5:14], seeds=list(range(5, 14)), **kw)
+    first = results[0].metric_values
+    assert first is not None
+    for other in results[1:]:
+        assert other.metric_values is not None
+        for name in METRIC_COLUMNS:
+            np.testing.assert_array_equal(other.metric_values[name], first[name], err_msg=name)
+    assert rev.metric_values is not None and part.metric_values is not None
+    for name in METRIC_COLUMNS:
+        np.testing.assert_array_equal(rev.metric_values[name][::-1], first[name], err_msg=name)
+        np.testing.assert_array_equal(part.metric_values[name], first[name][5:14], err_msg=name)
