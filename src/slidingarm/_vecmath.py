@@ -3,9 +3,9 @@
 A call to ``math.sin``, ``math.exp``, ``math.log``, ``x**y`` or ``math.tanh`` in a numba loop
 is an opaque libm call: the loop over the runs of a block (the *lanes*) then stays scalar,
 because the PyPI llvmlite has no SVML vector library. The functions here are plain float64
-arithmetic instead, each ``@njit(inline="always")``: inlined into a loop
-``for l in range(8): out[l] = sin(x[l])`` they become ``<8 x double>`` code (AVX-512) or
-``<4 x double>`` code (AVX2).
+arithmetic instead, each ``@njit(inline="always")``: inlined into a lane loop that LLVM
+can vectorise (see *Lane loops that vectorise* below) they become vector code, ``<4 x double>``
+here (``<8 x double>`` would need LLVM to prefer 512-bit vectors).
 
 Methods, common to all
 ----------------------
@@ -43,25 +43,26 @@ Flags. Use these functions in a caller compiled with ``fastmath`` off or with
 ``fastmath={"contract"}``. The other fast-math flags are not supported: ``reassoc`` would
 cancel the compensated sums (``(a + b) - a - b`` becomes 0) and the ``1.5 * 2**52`` rounding,
 ``nnan``/``ninf`` would drop the NaN and infinity handling, ``arcp`` would round the two
-divisions (:func:`log`, :func:`tanh`) differently. The two divisions are bare ``fdiv`` (:func:`_div`), so
-the code vectorises under either ``error_model`` of the caller (inlined code takes the
-caller's; the default ``"python"`` model would put a zero-division check, a branch, in front
-of a ``/``); the functions themselves are compiled with ``error_model="numpy"``.
+divisions (in :func:`log` and :func:`tanh`) differently. Those divisions are a bare ``fdiv``
+(:func:`_div`), so the code vectorises under either ``error_model`` of the caller (inlined
+code takes the caller's, and the default ``"python"`` model would put a zero-division check,
+a branch, in front of a ``/``; both models are tested); the functions themselves are compiled
+with ``error_model="numpy"``.
 
 Accuracy, in units in the last place of the result (``ulp(v)`` the float64 spacing in the
 binade of the exact ``v``), against numpy in x87 extended precision (64-bit significand), on
 dense random samples over the stated ranges plus edge cases (``tests/engine/test_vecmath.py``
 asserts the stated bound; the largest error measured there is given beside it):
 
-========  ==========================================  =========  ========
-function  range                                       bound      measured
-========  ==========================================  =========  ========
-sin/cos   ``|x| <= 2**20`` (also tested to ``2**50``)  1 ulp      0.80
-exp       all float64                                 1 ulp      0.81
-log       all float64 ``> 0``, subnormals too         1 ulp      0.59
-pow_abs   ``|x|`` in ``[1e-300, 1e3]``, ``0 < g < 2``  1 ulp      0.82
-tanh      all float64                                 1 ulp      0.83
-========  ==========================================  =========  ========
+========  ===========================================  =====  ========
+function  range                                        bound  measured
+========  ===========================================  =====  ========
+sin/cos   ``|x| <= 2**20`` (also tested to ``2**50``)  1 ulp  0.80
+exp       all float64                                  1 ulp  0.81
+log       all float64 ``> 0``, subnormals too          1 ulp  0.59
+pow_abs   ``|x|`` in ``[1e-300, 1e3]``, ``0 < g < 2``  1 ulp  0.82
+tanh      all float64                                  1 ulp  0.83
+========  ===========================================  =====  ========
 """
 
 from __future__ import annotations
@@ -258,7 +259,8 @@ def sincos(x: float) -> tuple[float, float]:
 
     Method: ``j = round(2x/π)`` (the ``1.5·2**52`` shifter), ``r = x - jπ/2`` carried as a
     double-double ``r_h + r_l`` (Cody-Waite with ``π/2`` in three doubles, the first product
-    exact in a fused multiply-add, the second split exactly), then on ``|r| <= π/4``
+    exact in a fused multiply-add, the second split exactly), then on ``|r| <= π/4`` (up to
+    0.85 near :data:`TRIG_MAX`, where ``2/π`` rounded to a double can pick a neighbouring ``j``)
 
     .. math::
 
@@ -268,8 +270,7 @@ def sincos(x: float) -> tuple[float, float]:
     ``S`` and ``C`` polynomials of degree 6 and 5 fitted on ``|r| <= 0.85``, ``1 - r^2/2`` summed
     exactly; the quadrant ``j mod 4`` selects and signs the two.
 
-    Range and accuracy: at most 1 ulp from the correctly rounded value for
-    ``|x| <= 2**20`` (the angles of the loop are bounded by 1e3 rad); the reduction stays
+    Range and accuracy: at most 1 ulp from the exact value for ``|x| <= 2**20`` (the angles of the loop are bounded by 1e3 rad); the reduction stays
     exact up to ``|x| <=`` :data:`TRIG_MAX` ``= 2**50`` (errors measured at most 1 ulp there
     too, on samples). Beyond ``2**50`` (finite) the result is ``(0.0, 1.0)``: finite and
     bounded, but not the sine and cosine of ``x``. NaN and ``±inf`` give NaN. ``sin(±0) = ±0``
