@@ -169,19 +169,6 @@ _INF = float("inf")
 _NAN = float("nan")
 
 
-@njit(**_INLINE)
-def _copysign(a: float, b: float) -> float:
-    """``|a|`` with the sign bit of ``b`` (bit operations, ``-0.0`` kept)."""
-    return _as_float((_as_int(a) & ~_SIGN_BIT) | (_as_int(b) & _SIGN_BIT))
-
-
-@njit(**_INLINE)
-def _int_to_float(k: int) -> float:
-    """``float(k)`` for ``|k| < 2**51`` through the shifter (no ``sitofp``, which needs
-    AVX-512DQ to vectorise)."""
-    return _as_float(k + _SHIFTER_BITS) - _SHIFTER
-
-
 # --------------------------------------------------------------------------- sin, cos
 
 _TWO_OVER_PI = 0.6366197723675814
@@ -213,8 +200,28 @@ _C5 = -1.1367607736080766e-11
 
 
 @njit(**_INLINE)
-def _sincos(x: float) -> tuple[float, float]:
-    """``(sin x, cos x)`` from one reduction; see :func:`sincos`."""
+def sincos(x: float) -> tuple[float, float]:
+    """``(sin x, cos x)`` from one range reduction, vectorisable in a lane loop.
+
+    Method: ``j = round(2x/π)`` (the ``1.5·2**52`` shifter), ``r = x - jπ/2`` carried as a
+    double-double ``r_h + r_l`` (Cody-Waite with ``π/2`` in three doubles, the first product
+    exact in a fused multiply-add, the second split exactly), then on ``|r| <= π/4`` (up to
+    0.85 near :data:`TRIG_MAX`, where ``2/π`` rounded to a double can pick a neighbouring ``j``)
+
+    .. math::
+
+        \\sin r = r + r^3 S(r^2) + r_l, \\qquad
+        \\cos r = 1 - \\tfrac{r^2}{2} + r^4 C(r^2) - r_h r_l,
+
+    ``S`` and ``C`` polynomials of degree 6 and 5 fitted on ``|r| <= 0.85``, ``1 - r^2/2`` summed
+    exactly; the quadrant ``j mod 4`` selects and signs the two.
+
+    Range and accuracy: at most 1 ulp from the exact value for ``|x| <= 2**20`` (the angles of the loop are bounded by 1e3 rad); the reduction stays
+    exact up to ``|x| <=`` :data:`TRIG_MAX` ``= 2**50`` (errors measured at most 1 ulp there
+    too, on samples). Beyond ``2**50`` (finite) the result is ``(0.0, 1.0)``: finite and
+    bounded, but not the sine and cosine of ``x``. NaN and ``±inf`` give NaN. ``sin(±0) = ±0``
+    and ``sin x = x`` for ``|x| < 2**-26``.
+    """
     finite = abs(x) <= TRIG_MAX  # False for NaN, infinities and beyond the reduction
     xr = x if finite else 0.0
     # j = round(x * 2/pi); r = x - j pi/2 as rh + rl (Cody-Waite in three parts)
@@ -254,39 +261,13 @@ def _sincos(x: float) -> tuple[float, float]:
 
 
 @njit(**_INLINE)
-def sincos(x: float) -> tuple[float, float]:
-    """``(sin x, cos x)`` from one range reduction, vectorisable in a lane loop.
-
-    Method: ``j = round(2x/π)`` (the ``1.5·2**52`` shifter), ``r = x - jπ/2`` carried as a
-    double-double ``r_h + r_l`` (Cody-Waite with ``π/2`` in three doubles, the first product
-    exact in a fused multiply-add, the second split exactly), then on ``|r| <= π/4`` (up to
-    0.85 near :data:`TRIG_MAX`, where ``2/π`` rounded to a double can pick a neighbouring ``j``)
-
-    .. math::
-
-        \\sin r = r + r^3 S(r^2) + r_l, \\qquad
-        \\cos r = 1 - \\tfrac{r^2}{2} + r^4 C(r^2) - r_h r_l,
-
-    ``S`` and ``C`` polynomials of degree 6 and 5 fitted on ``|r| <= 0.85``, ``1 - r^2/2`` summed
-    exactly; the quadrant ``j mod 4`` selects and signs the two.
-
-    Range and accuracy: at most 1 ulp from the exact value for ``|x| <= 2**20`` (the angles of the loop are bounded by 1e3 rad); the reduction stays
-    exact up to ``|x| <=`` :data:`TRIG_MAX` ``= 2**50`` (errors measured at most 1 ulp there
-    too, on samples). Beyond ``2**50`` (finite) the result is ``(0.0, 1.0)``: finite and
-    bounded, but not the sine and cosine of ``x``. NaN and ``±inf`` give NaN. ``sin(±0) = ±0``
-    and ``sin x = x`` for ``|x| < 2**-26``.
-    """
-    return _sincos(x)
-
-
-@njit(**_INLINE)
 def sin(x: float) -> float:
     """``sin x``, vectorisable in a lane loop; :func:`sincos` states the method.
 
     At most 1 ulp for ``|x| <= 2**20`` (exact reduction up to ``2**50``; ``0.0`` beyond);
     NaN and ``±inf`` give NaN; ``sin(±0) = ±0``.
     """
-    return _sincos(x)[0]
+    return sincos(x)[0]
 
 
 @njit(**_INLINE)
@@ -296,7 +277,7 @@ def cos(x: float) -> float:
     At most 1 ulp for ``|x| <= 2**20`` (exact reduction up to ``2**50``; ``1.0`` beyond);
     NaN and ``±inf`` give NaN.
     """
-    return _sincos(x)[1]
+    return sincos(x)[1]
 
 
 # --------------------------------------------------------------------------- exp
@@ -383,23 +364,6 @@ def exp(x: float) -> float:
     return _exp_dd(x, 0.0)
 
 
-@njit(**_INLINE)
-def _expm1_small(x: float) -> tuple[float, float]:
-    """``e**x - 1`` for ``0 <= x <= 40`` (NaN kept) as a double-double ``(uh, ul)``, without
-    cancellation for small ``x``: ``2^k (1 + y) - 1 = (2^k - 1) + 2^k y_h + 2^k y_t``, the
-    first sum error-free (``2^k - 1`` and ``2^k y_h`` are exact), ``ul`` the rest."""
-    k, yh, yt = _exp_reduce(x, 0.0)
-    s = _as_float((k + 1023) << 52)
-    sm1 = s - 1.0  # exact for k <= 53
-    p = _mul(s, yh)  # exact
-    t = sm1 + p
-    bb = t - sm1
-    te = (sm1 - (t - bb)) + (p - bb)  # t + te = sm1 + p exactly
-    w = _fma(s, yt, te)  # |w| < |t|
-    uh = t + w
-    return uh, w - (uh - t)  # uh + ul = t + w exactly (fast two-sum)
-
-
 # --------------------------------------------------------------------------- log
 
 # ln 2 = _LN2_HI + _LN2_LO + O(2e-31), _LN2_HI with 41 significant bits: k*_LN2_HI is
@@ -436,7 +400,7 @@ def _log_dd(x: float) -> tuple[float, float]:
     k = (u >> 52) - 1023
     k = k - 54 if sub else k
     m = _as_float((u & _MANT_MASK) + _SQRT_HALF_BITS)
-    kf = _int_to_float(k)
+    kf = _as_float(k + _SHIFTER_BITS) - _SHIFTER  # float(k) without sitofp (AVX-512DQ)
     f = m - 1.0  # exact (Sterbenz)
     # ln(1+f) = 2 atanh(s), s = f/(2+f):  = f - f^2/2 + s (f^2/2 + R),  R = z Q(z)
     s = _div(f, 2.0 + f)
@@ -546,7 +510,18 @@ def tanh(x: float) -> float:
     """
     a = abs(x)
     a = _TANH_SAT if a > _TANH_SAT else a
-    uh, ul = _expm1_small(a + a)
+    # u = e^{2a} - 1 = (2^k - 1) + 2^k yh + 2^k yt as uh + ul: the first sum error-free
+    # (2^k - 1 and 2^k yh are exact), no cancellation for small a
+    k, yh, yt = _exp_reduce(a + a, 0.0)
+    s = _as_float((k + 1023) << 52)
+    sm1 = s - 1.0  # exact for k <= 53
+    p = _mul(s, yh)  # exact
+    t = sm1 + p
+    bb = t - sm1
+    te = (sm1 - (t - bb)) + (p - bb)  # t + te = sm1 + p exactly
+    w = _fma(s, yt, te)  # |w| < |t|
+    uh = t + w
+    ul = w - (uh - t)  # uh + ul = t + w exactly (fast two-sum)
     small = a < _TANH_SPLIT
     # q = num / (u + 2), u = uh + ul, with the denominator double-double (dh + dl): one
     # division, then one correction by the residual num - q (dh + dl)
@@ -559,4 +534,5 @@ def tanh(x: float) -> float:
     rem = _fma(-q, dh, num) + ((ul if small else 0.0) - _mul(q, dl))
     q = _fma(rem, inv, q)
     t = q if small else 1.0 - q
-    return _copysign(t, x)
+    # |t| with the sign bit of x (tanh(-0) = -0)
+    return _as_float((_as_int(t) & ~_SIGN_BIT) | (_as_int(x) & _SIGN_BIT))
