@@ -12,6 +12,7 @@ import tracemalloc
 from collections.abc import Iterator
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 
@@ -166,25 +167,34 @@ def _threads(nb: int) -> int:
     return simulate_module._threads(nb, False)
 
 
+@pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize(
     ("runs", "record"), [(1, "full"), (8, "full"), (40, "full"), (40, "metrics"), (40, "every")]
 )
-def test_the_memory_estimate_bounds_what_a_batch_allocates(runs: int, record: str) -> None:
-    """The estimate is an upper bound of the traced peak, and not a loose one."""
+def test_the_memory_estimate_bounds_what_a_batch_allocates(
+    runs: int, record: str, threads: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The estimate is an upper bound of the traced peak, and, on one thread, not a loose one
+    (on two, the peak depends on whether the threads' working sets happen to overlap)."""
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", threads)
     arm = sa.PlanarArm.paper()
     ctrl = sa.FTSMC(arm, alpha=2.0, beta=2.0, gamma=0.6, k=20.0)
     rec: simulate_module.Record = sa.Every(10) if record == "every" else record  # type: ignore[assignment]
-    opts = dict(t_final=1.0, dt=5e-4, record=rec, sensor=sa.Sensor(noise=sa.GaussianNoise(1e-4)))
-    sa.simulate_batch(arm, ctrl, sa.PaperReference(), q0=sa.PAPER_Q0, **opts)  # compiled
+    opts = dict(dt=5e-4, record=rec, sensor=sa.Sensor(noise=sa.GaussianNoise(1e-4)))
+    batch = dict(q0=np.tile(sa.PAPER_Q0, (runs, 1)), seeds=list(range(runs)))
+    # a short batch of the same size first: it takes the same path, whose kernels compile
+    # outside the traced call
+    sa.simulate_batch(arm, ctrl, sa.PaperReference(), t_final=0.01, **batch, **opts)  # type: ignore[arg-type]
     tracemalloc.start()
     try:
-        sa.simulate_batch(arm, ctrl, sa.PaperReference(), q0=np.tile(sa.PAPER_Q0, (runs, 1)),
-                          seeds=list(range(runs)), **opts)  # fmt: skip
+        sa.simulate_batch(arm, ctrl, sa.PaperReference(), t_final=1.0, **batch, **opts)  # type: ignore[arg-type]
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
     estimate = memory_estimate(2001, 3, runs, record=rec, threads=_threads(runs))
-    assert peak <= estimate <= 1.5 * peak + 2**20
+    assert peak <= estimate
+    if threads == 1:
+        assert estimate <= 1.5 * peak + 2**20
 
 
 def test_available_memory_is_at_most_the_physical_memory() -> None:
