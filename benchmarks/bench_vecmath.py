@@ -10,9 +10,7 @@ picks ``<4 x double>`` on this CPU), the libm loop calls a scalar function per e
 Prints the median ns per element over the repeats (10th-90th percentile spread) and the
 ratio libm / ours of the medians; the two loops of a function are timed in turns so that a
 change of the machine's load shows in both. ``--clock cpu`` reads the thread's CPU time
-(``time.thread_time``) instead of the wall clock. The last two columns are the CPU seconds
-that compiling each loop took (numba inlines our function's IR at every call site, so this
-is what one call site adds to a kernel's compile time; the libm loop is the baseline).
+(``time.thread_time``) instead of the wall clock.
 """
 
 from __future__ import annotations
@@ -97,18 +95,12 @@ def main() -> None:
         f"n = {args.n}, {args.repeats} repeats, {args.clock} clock, "
         f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
     )
-    print(
-        f"{'function':<22}{'ours ns/elem':>24}{'libm ns/elem':>24}{'libm/ours':>11}"
-        f"{'compile s (ours, libm)':>24}"
-    )
+    print(f"{'function':<22}{'ours ns/elem':>24}{'libm ns/elem':>24}{'libm/ours':>11}")
     rng = np.random.default_rng(12)
     for name, x, ours, libm in _cases(rng, args.n):
         out = np.empty_like(x)
-        compile_s = []
-        for fn in (ours, libm):
-            t0 = time.thread_time()
-            fn(x[:8], out[:8])
-            compile_s.append(time.thread_time() - t0)
+        ours(x[:8], out[:8])  # compile
+        libm(x[:8], out[:8])
         times: dict[str, list[float]] = {"ours": [], "libm": []}
         for _ in range(args.repeats):
             for key, fn in (("ours", ours), ("libm", libm)):
@@ -122,10 +114,7 @@ def main() -> None:
                 f"{np.median(a):7.2f} [{np.percentile(a, 10):5.2f}, {np.percentile(a, 90):5.2f}]"
             )
         ratio = np.median(times["libm"]) / np.median(times["ours"])
-        print(
-            f"{name:<22}{cols[0]:>24}{cols[1]:>24}{ratio:>10.1f}x"
-            f"{compile_s[0]:>9.2f}{compile_s[1]:>7.2f}"
-        )
+        print(f"{name:<22}{cols[0]:>24}{cols[1]:>24}{ratio:>10.1f}x")
 
 
 if __name__ == "__main__":

@@ -3,9 +3,9 @@
 A call to ``math.sin``, ``math.exp``, ``math.log``, ``x**y`` or ``math.tanh`` in a numba loop
 is an opaque libm call: the loop over the runs of a block (the *lanes*) then stays scalar,
 because the PyPI llvmlite has no SVML vector library. The functions here are plain float64
-arithmetic instead, each ``@njit(inline="always")``: inlined into a lane loop that LLVM
-can vectorise (see *Lane loops that vectorise* below) they become vector code, ``<4 x double>``
-here (``<8 x double>`` would need LLVM to prefer 512-bit vectors).
+arithmetic instead, each ``@njit(inline="always")``: inlined into a loop
+``for l in range(8): out[l] = sin(x[l])`` they become ``<8 x double>`` code (AVX-512) or
+``<4 x double>`` code (AVX2).
 
 Methods, common to all
 ----------------------
@@ -24,45 +24,28 @@ Methods, common to all
   inlined code into a fused multiply-add. So the results are bit-for-bit the same with
   ``fastmath`` off and with ``fastmath={"contract"}`` (tested).
 
-Lane loops that vectorise. LLVM vectorises a lane loop only when it can prove that a store
-of one lane does not overwrite a later lane's input. Measured with numba 0.68 on this machine
-(``fastmath={"contract"}``), for ``for l in range(8): ...``:
-
-* in place, ``S[i, l] = f(S[i, l])`` or ``t[l] = f(t[l])``: vectorised;
-* one 1-D array at constant offsets, ``S[8 + l] = f(S[l])``: vectorised;
-* two argument arrays, ``out[l] = f(x[l])``, or two rows of one 2-D array,
-  ``S[1, l] = f(S[0, l])``: *not* vectorised, even for ``f(x) = 2x + 1`` (the arrays may
-  overlap: numba passes no ``noalias``, and the rows' strides are run-time values);
-* a long loop ``for i in range(n): out[i] = f(x[i])``: vectorised (LLVM checks the overlap at
-  run time).
-
-LLVM picks ``<4 x double>`` (``ymm``) rather than ``<8 x double>`` on this AVX-512 CPU: its
-tuning for these cores prefers 256-bit vectors.
-
 Flags. Use these functions in a caller compiled with ``fastmath`` off or with
 ``fastmath={"contract"}``. The other fast-math flags are not supported: ``reassoc`` would
 cancel the compensated sums (``(a + b) - a - b`` becomes 0) and the ``1.5 * 2**52`` rounding,
 ``nnan``/``ninf`` would drop the NaN and infinity handling, ``arcp`` would round the two
-divisions (in :func:`log` and :func:`tanh`) differently. Those divisions are a bare ``fdiv``
-(:func:`_div`), so the code vectorises under either ``error_model`` of the caller (inlined
-code takes the caller's, and the default ``"python"`` model would put a zero-division check,
-a branch, in front of a ``/``; both models are tested); the functions themselves are compiled
-with ``error_model="numpy"``.
+divisions (:func:`log`, :func:`tanh`) differently. ``error_model="numpy"`` (here and in the
+caller) is needed: the default ``"python"`` model puts a zero-division check, a branch, in front
+of each division.
 
 Accuracy, in units in the last place of the result (``ulp(v)`` the float64 spacing in the
 binade of the exact ``v``), against numpy in x87 extended precision (64-bit significand), on
 dense random samples over the stated ranges plus edge cases (``tests/engine/test_vecmath.py``
 asserts the stated bound; the largest error measured there is given beside it):
 
-========  ===========================================  =====  ========
-function  range                                        bound  measured
-========  ===========================================  =====  ========
-sin/cos   ``|x| <= 2**20`` (also tested to ``2**50``)  1 ulp  0.80
-exp       all float64                                  1 ulp  0.81
-log       all float64 ``> 0``, subnormals too          1 ulp  0.59
-pow_abs   ``|x|`` in ``[1e-300, 1e3]``, ``0 < g < 2``  1 ulp  0.82
-tanh      all float64                                  1 ulp  0.83
-========  ===========================================  =====  ========
+========  ==========================================  =========  ========
+function  range                                       bound      measured
+========  ==========================================  =========  ========
+sin/cos   ``|x| <= 2**20`` (also tested to ``2**50``)  1 ulp      0.80
+exp       all float64                                 1 ulp      0.81
+log       all float64 ``> 0``, subnormals too         1 ulp      0.59
+pow_abs   ``|x|`` in ``[1e-300, 1e3]``, ``0 < g < 2``  1 ulp      0.82
+tanh      all float64                                 1 ulp      0.83
+========  ==========================================  =========  ========
 """
 
 from __future__ import annotations
@@ -146,27 +129,24 @@ def _mul(typingctx: Any, a: Any, b: Any) -> Any:
     return types.float64(a, b), codegen
 
 
-@intrinsic
-def _div(typingctx: Any, a: Any, b: Any) -> Any:
-    """``a/b`` rounded (IEEE: ``x/0 = ±inf``, ``0/0 = NaN``), a bare ``fdiv`` whatever the
-    caller's ``error_model``: under numba's default ``"python"`` model a ``/`` inlined into
-    the caller gets a zero-division check, a branch that stops vectorisation."""
-    if not all(isinstance(t, types.Float) for t in (a, b)):
-        return None
-
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        fa = context.cast(builder, args[0], signature.args[0], types.float64)
-        fb = context.cast(builder, args[1], signature.args[1], types.float64)
-        return builder.fdiv(fa, fb)
-
-    return types.float64(a, b), codegen
-
-
 _SHIFTER = 6755399441055744.0  # 1.5 * 2**52: x + _SHIFTER - _SHIFTER rounds x to an integer
 _SHIFTER_BITS = 0x4338000000000000  # its bits; bits(x + _SHIFTER) - _SHIFTER_BITS = round(x)
 _SIGN_BIT = -0x8000000000000000  # int64 with only the sign bit set
 _INF = float("inf")
 _NAN = float("nan")
+
+
+@njit(**_INLINE)
+def _copysign(a: float, b: float) -> float:
+    """``|a|`` with the sign bit of ``b`` (bit operations, ``-0.0`` kept)."""
+    return _as_float((_as_int(a) & ~_SIGN_BIT) | (_as_int(b) & _SIGN_BIT))
+
+
+@njit(**_INLINE)
+def _int_to_float(k: int) -> float:
+    """``float(k)`` for ``|k| < 2**51`` through the shifter (no ``sitofp``, which needs
+    AVX-512DQ to vectorise)."""
+    return _as_float(k + _SHIFTER_BITS) - _SHIFTER
 
 
 # --------------------------------------------------------------------------- sin, cos
@@ -200,28 +180,8 @@ _C5 = -1.1367607736080766e-11
 
 
 @njit(**_INLINE)
-def sincos(x: float) -> tuple[float, float]:
-    """``(sin x, cos x)`` from one range reduction, vectorisable in a lane loop.
-
-    Method: ``j = round(2x/π)`` (the ``1.5·2**52`` shifter), ``r = x - jπ/2`` carried as a
-    double-double ``r_h + r_l`` (Cody-Waite with ``π/2`` in three doubles, the first product
-    exact in a fused multiply-add, the second split exactly), then on ``|r| <= π/4`` (up to
-    0.85 near :data:`TRIG_MAX`, where ``2/π`` rounded to a double can pick a neighbouring ``j``)
-
-    .. math::
-
-        \\sin r = r + r^3 S(r^2) + r_l, \\qquad
-        \\cos r = 1 - \\tfrac{r^2}{2} + r^4 C(r^2) - r_h r_l,
-
-    ``S`` and ``C`` polynomials of degree 6 and 5 fitted on ``|r| <= 0.85``, ``1 - r^2/2`` summed
-    exactly; the quadrant ``j mod 4`` selects and signs the two.
-
-    Range and accuracy: at most 1 ulp from the exact value for ``|x| <= 2**20`` (the angles of the loop are bounded by 1e3 rad); the reduction stays
-    exact up to ``|x| <=`` :data:`TRIG_MAX` ``= 2**50`` (errors measured at most 1 ulp there
-    too, on samples). Beyond ``2**50`` (finite) the result is ``(0.0, 1.0)``: finite and
-    bounded, but not the sine and cosine of ``x``. NaN and ``±inf`` give NaN. ``sin(±0) = ±0``
-    and ``sin x = x`` for ``|x| < 2**-26``.
-    """
+def _sincos(x: float) -> tuple[float, float]:
+    """``(sin x, cos x)`` from one reduction; see :func:`sincos`."""
     finite = abs(x) <= TRIG_MAX  # False for NaN, infinities and beyond the reduction
     xr = x if finite else 0.0
     # j = round(x * 2/pi); r = x - j pi/2 as rh + rl (Cody-Waite in three parts)
@@ -261,13 +221,39 @@ def sincos(x: float) -> tuple[float, float]:
 
 
 @njit(**_INLINE)
+def sincos(x: float) -> tuple[float, float]:
+    """``(sin x, cos x)`` from one range reduction, vectorisable in a lane loop.
+
+    Method: ``j = round(2x/π)`` (the ``1.5·2**52`` shifter), ``r = x - jπ/2`` carried as a
+    double-double ``r_h + r_l`` (Cody-Waite with ``π/2`` in three doubles, the first product
+    exact in a fused multiply-add, the second split exactly), then on ``|r| <= π/4``
+
+    .. math::
+
+        \\sin r = r + r^3 S(r^2) + r_l, \\qquad
+        \\cos r = 1 - \\tfrac{r^2}{2} + r^4 C(r^2) - r_h r_l,
+
+    ``S`` and ``C`` polynomials of degree 6 and 5 fitted on ``|r| <= 0.85``, ``1 - r^2/2`` summed
+    exactly; the quadrant ``j mod 4`` selects and signs the two.
+
+    Range and accuracy: at most 1 ulp from the correctly rounded value for
+    ``|x| <= 2**20`` (the angles of the loop are bounded by 1e3 rad); the reduction stays
+    exact up to ``|x| <=`` :data:`TRIG_MAX` ``= 2**50`` (errors measured at most 1 ulp there
+    too, on samples). Beyond ``2**50`` (finite) the result is ``(0.0, 1.0)``: finite and
+    bounded, but not the sine and cosine of ``x``. NaN and ``±inf`` give NaN. ``sin(±0) = ±0``
+    and ``sin x = x`` for ``|x| < 2**-26``.
+    """
+    return _sincos(x)
+
+
+@njit(**_INLINE)
 def sin(x: float) -> float:
     """``sin x``, vectorisable in a lane loop; :func:`sincos` states the method.
 
     At most 1 ulp for ``|x| <= 2**20`` (exact reduction up to ``2**50``; ``0.0`` beyond);
     NaN and ``±inf`` give NaN; ``sin(±0) = ±0``.
     """
-    return sincos(x)[0]
+    return _sincos(x)[0]
 
 
 @njit(**_INLINE)
@@ -277,7 +263,7 @@ def cos(x: float) -> float:
     At most 1 ulp for ``|x| <= 2**20`` (exact reduction up to ``2**50``; ``1.0`` beyond);
     NaN and ``±inf`` give NaN.
     """
-    return sincos(x)[1]
+    return _sincos(x)[1]
 
 
 # --------------------------------------------------------------------------- exp
@@ -364,6 +350,23 @@ def exp(x: float) -> float:
     return _exp_dd(x, 0.0)
 
 
+@njit(**_INLINE)
+def _expm1_small(x: float) -> tuple[float, float]:
+    """``e**x - 1`` for ``0 <= x <= 40`` (NaN kept) as a double-double ``(uh, ul)``, without
+    cancellation for small ``x``: ``2^k (1 + y) - 1 = (2^k - 1) + 2^k y_h + 2^k y_t``, the
+    first sum error-free (``2^k - 1`` and ``2^k y_h`` are exact), ``ul`` the rest."""
+    k, yh, yt = _exp_reduce(x, 0.0)
+    s = _as_float((k + 1023) << 52)
+    sm1 = s - 1.0  # exact for k <= 53
+    p = _mul(s, yh)  # exact
+    t = sm1 + p
+    bb = t - sm1
+    te = (sm1 - (t - bb)) + (p - bb)  # t + te = sm1 + p exactly
+    w = _fma(s, yt, te)  # |w| < |t|
+    uh = t + w
+    return uh, w - (uh - t)  # uh + ul = t + w exactly (fast two-sum)
+
+
 # --------------------------------------------------------------------------- log
 
 # ln 2 = _LN2_HI + _LN2_LO + O(2e-31), _LN2_HI with 41 significant bits: k*_LN2_HI is
@@ -400,10 +403,10 @@ def _log_dd(x: float) -> tuple[float, float]:
     k = (u >> 52) - 1023
     k = k - 54 if sub else k
     m = _as_float((u & _MANT_MASK) + _SQRT_HALF_BITS)
-    kf = _as_float(k + _SHIFTER_BITS) - _SHIFTER  # float(k) without sitofp (AVX-512DQ)
+    kf = _int_to_float(k)
     f = m - 1.0  # exact (Sterbenz)
     # ln(1+f) = 2 atanh(s), s = f/(2+f):  = f - f^2/2 + s (f^2/2 + R),  R = z Q(z)
-    s = _div(f, 2.0 + f)
+    s = f / (2.0 + f)
     z = _mul(s, s)
     qz = _fma(_Q7, z, _Q6)
     qz = _fma(qz, z, _Q5)
@@ -510,29 +513,17 @@ def tanh(x: float) -> float:
     """
     a = abs(x)
     a = _TANH_SAT if a > _TANH_SAT else a
-    # u = e^{2a} - 1 = (2^k - 1) + 2^k yh + 2^k yt as uh + ul: the first sum error-free
-    # (2^k - 1 and 2^k yh are exact), no cancellation for small a
-    k, yh, yt = _exp_reduce(a + a, 0.0)
-    s = _as_float((k + 1023) << 52)
-    sm1 = s - 1.0  # exact for k <= 53
-    p = _mul(s, yh)  # exact
-    t = sm1 + p
-    bb = t - sm1
-    te = (sm1 - (t - bb)) + (p - bb)  # t + te = sm1 + p exactly
-    w = _fma(s, yt, te)  # |w| < |t|
-    uh = t + w
-    ul = w - (uh - t)  # uh + ul = t + w exactly (fast two-sum)
+    uh, ul = _expm1_small(a + a)
     small = a < _TANH_SPLIT
     # q = num / (u + 2), u = uh + ul, with the denominator double-double (dh + dl): one
     # division, then one correction by the residual num - q (dh + dl)
     dh = uh + 2.0
     bb = dh - uh
     dl = ((uh - (dh - bb)) + (2.0 - bb)) + ul  # dh + dl = u + 2 (two-sum)
-    inv = _div(1.0, dh)
+    inv = 1.0 / dh
     num = uh if small else 2.0
     q = _mul(num, inv)
     rem = _fma(-q, dh, num) + ((ul if small else 0.0) - _mul(q, dl))
     q = _fma(rem, inv, q)
     t = q if small else 1.0 - q
-    # |t| with the sign bit of x (tanh(-0) = -0)
-    return _as_float((_as_int(t) & ~_SIGN_BIT) | (_as_int(x) & _SIGN_BIT))
+    return _copysign(t, x)

@@ -358,32 +358,39 @@ BLOCK_MIN_RUNS = 2 * 8
 BLOCK_CHUNK = 4
 
 
-def _block_eligible(plan: _Plan) -> bool:
-    """Whether every run is a compiled planar plant under a built-in sliding-mode law with
-    ``law = "model"`` and a planar nominal model: what :func:`slidingarm._block.run_block`
-    computes."""
-    return _block_eligible_runs(plan.plants, plan.ctrls, plan.nb)
-
-
 def _block_eligible_runs(
-    plants: list[ArmModel | SteppedPlant], ctrls: list[Controller], nb: int
+    plants: list[ArmModel | SteppedPlant],
+    ctrls: list[Controller],
+    nb: int,
+    *,
+    need: bool | None = None,
 ) -> bool:
-    """:func:`_block_eligible` from the plants, controllers and batch size."""
+    """Whether every run is a compiled planar plant under a built-in sliding-mode law with
+    ``law = "model"`` and a planar nominal model (what :func:`slidingarm._block.run_block`
+    computes) and the batch has :data:`BLOCK_MIN_RUNS` runs; with ``need=True`` (``simulate_batch(block=True)``) any batch size, and a ``ValueError``
+    naming the reason instead of ``False``."""
     from slidingarm.control import _dispatch as LD
     from slidingarm.control import _kernels as CK
     from slidingarm.models import _dispatch as MD
 
-    if nb < BLOCK_MIN_RUNS:
+    def no(reason: str) -> bool:
+        if need:
+            raise ValueError(f"block=True: this batch cannot take the block path: {reason}")
+        return False
+
+    if nb < BLOCK_MIN_RUNS and not need:
         return False
     for p in plants:
         if isinstance(p, SteppedPlant) or p.handle.kind != MD.KIND_PLANAR:
-            return False
+            return no(f"the plant {type(p).__name__} is not a compiled planar arm")
     for c in ctrls:
         law = c.handle
-        if law.code != LD.LAW_SLIDING_MODE or c.model.handle.kind != MD.KIND_PLANAR:
-            return False
+        if law.code != LD.LAW_SLIDING_MODE:
+            return no(f"controller {c.label} is not a built-in sliding-mode law")
+        if c.model.handle.kind != MD.KIND_PLANAR:
+            return no(f"controller {c.label}'s nominal model is not a planar arm")
         if law.params[CK.CI_LAW] != CK.LAW_MODEL:
-            return False
+            return no(f"controller {c.label} uses law='paper' (only law='model' is blocked)")
     return True
 
 
@@ -742,6 +749,7 @@ def simulate_batch(
     qd_limit: float = DEFAULT_QD_LIMIT,
     record: Record = "full",
     throw: bool = True,
+    block: bool | None = None,
 ) -> BatchResult:
     """Simulate ``B`` closed-loop runs on one time grid.
 
@@ -758,6 +766,14 @@ def simulate_batch(
         sample; ``"metrics"``: no traces, only each run's metrics (those of
         :func:`slidingarm.metrics.summary` on its full traces), computed chunk by chunk so
         that memory stays O(B n) beyond a bounded working set.
+    block : bool or None
+        Which loop runs the batch. ``None`` (default): the block path
+        (:mod:`slidingarm._block`, eight runs advanced together, bit-identical per run) when
+        every run is a planar arm under a built-in law with ``law="model"`` and
+        :math:`B \\ge` :data:`BLOCK_MIN_RUNS`, else the per-run loop. ``False``: always the
+        per-run loop (the block kernel's first compilation, about 15 s once per cache, is not
+        worth it for a few dozen runs). ``True``: the block path, and a ``ValueError`` saying
+        why if the batch cannot take it.
     throw : bool
         ``True``: raise :class:`SimulationError` for the first diverging run. ``False``:
         record each run's status (``BatchResult.ok``, ``.status``, ``.message``) and let the
@@ -828,7 +844,9 @@ def simulate_batch(
     nt = steps + 1
     stepped = any(isinstance(p, SteppedPlant) for p in plants)
     nthreads = _threads(nb, stepped)
-    blockable = _block_eligible_runs(plants, ctrls, nb)
+    if block is not None and not isinstance(block, bool):
+        raise ParameterTypeError(f"block must be True, False or None, got {block!r}")
+    blockable = block is not False and _block_eligible_runs(plants, ctrls, nb, need=block)
     _check_memory(nt, n, nb, record, nthreads, blockable)
     t = time_grid(t_final, dt)
     # parameters chosen from the control period (an automatic eps_e) are fixed now
@@ -880,7 +898,7 @@ def simulate_batch(
         q, _qd, _qm, _qdm, tau, s = full
         return metric_values(t, q - qr[None], s, tau, status[sl, 0] != E.STATUS_OK)
 
-    if _block_eligible(plan):
+    if blockable:
         from slidingarm import _block as BK
 
         BK.compiled()

@@ -2,8 +2,8 @@
 scalar path's run bit for bit, failures are named per run, metrics stream to the numpy ones,
 and a batch does not depend on the thread count, the block size or the lane a run lands in.
 
-One compiled block kernel serves every test (short runs, small batches); the scalar path is
-forced by raising ``simulate.BLOCK_MIN_RUNS`` above the batch, the block path by lowering it.
+One compiled block kernel serves every test (short runs, small batches); each path is chosen
+by ``simulate_batch``'s ``block`` policy.
 """
 
 from __future__ import annotations
@@ -43,13 +43,23 @@ def q0s(nb: int) -> np.ndarray:
 
 
 def run(path: str, *args: Any, **kw: Any) -> sa.BatchResult:
-    """simulate_batch on the ``path`` ("block" or "scalar")."""
-    saved = S.BLOCK_MIN_RUNS
-    S.BLOCK_MIN_RUNS = 1 if path == "block" else 10**9
-    try:
-        return sa.simulate_batch(*args, **kw)
-    finally:
-        S.BLOCK_MIN_RUNS = saved
+    """simulate_batch on the ``path`` ("block" or "scalar"), by its ``block`` policy."""
+    return sa.simulate_batch(*args, block=path == "block", **kw)
+
+
+def test_the_block_policy_names_why_a_batch_cannot_take_the_block_path() -> None:
+    kw: dict[str, Any] = dict(q0=sa.PAPER_Q0, t_final=0.01, dt=DT)
+    paper_law = sa.FTSMC(ARM, alpha=2, beta=2, p=5, q=3, k=20, law="paper")
+    with pytest.raises(ValueError, match="law='paper'"):
+        sa.simulate_batch(ARM, paper_law, REF, block=True, **kw)
+    with pytest.raises(TypeError, match="block must be True, False or None"):
+        sa.simulate_batch(ARM, ftsmc("sign"), REF, block="yes", **kw)  # type: ignore[arg-type]
+    # block=False keeps a large batch on the per-run loop, None takes the block path: the
+    # same bits either way
+    many = dict(kw, q0=q0s(S.BLOCK_MIN_RUNS))
+    auto = sa.simulate_batch(ARM, ftsmc("sign"), REF, **many)
+    scalar = sa.simulate_batch(ARM, ftsmc("sign"), REF, block=False, **many)
+    np.testing.assert_array_equal(auto.tau, scalar.tau)
 
 
 @pytest.fixture(scope="module", params=["sign", "tanh"])
