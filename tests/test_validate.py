@@ -122,3 +122,26 @@ def test_per_joint_errors(value: Any, kw: dict[str, Any], message: str) -> None:
     assert str(info.value) == message
     if not wrong_type:
         assert not isinstance(info.value, TypeError)
+
+
+@pytest.mark.parametrize(
+    "value", [0, 2, -0.0, 1.5, [1, 2, 3], (0.25, 4), [2**60, 1e-300, -7.0], [10**400]]
+)
+def test_per_joint_gives_the_same_for_python_numbers_as_for_arrays(value: object) -> None:
+    """Python numbers and lists of them skip numpy (the sweep's staging); the result is the
+    general path's, which a numpy array of the same values takes."""
+    from slidingarm._validate import per_joint
+
+    array = np.array(value, dtype=object if value == [10**400] else None)
+    if value == [10**400]:
+        with pytest.raises(ValueError, match="x must be finite"):
+            per_joint("x", value)
+        return
+    got, want = per_joint("x", value), per_joint("x", array)
+    assert got == want and type(got) is type(want)
+    for low, inclusive in ((-1e300, False), (-0.0, True)):
+        if all(v >= low for v in np.atleast_1d(np.asarray(value, dtype=float))):
+            assert per_joint("x", value, low=low, inclusive=inclusive) == want
+    # a value a check refuses is worded by the general path, whichever way it came
+    with pytest.raises(ValueError, match=r"x must be > 1e\+300"):
+        per_joint("x", value, low=1e300)

@@ -314,6 +314,34 @@ def number_array(name: str, value: object, *, message: str | None = None) -> NDA
     return arr
 
 
+def _plain_per_joint(
+    value: object, low: float | None, inclusive: bool
+) -> float | tuple[float, ...] | None:
+    """:func:`per_joint`'s result for a valid Python ``float``/``int`` or a non-empty list or
+    tuple of them, without numpy (a sweep builds a few dozen such values per draw, and numpy's
+    reductions on three-element arrays cost microseconds each); ``None`` for anything else
+    and for any value that fails a check, which the general path then words."""
+    try:
+        if type(value) is float or type(value) is int:
+            x = float(value)
+            xs: tuple[float, ...] = (x,)
+            result: float | tuple[float, ...] = x
+        elif (type(value) is list or type(value) is tuple) and value:
+            if not all(type(v) is float or type(v) is int for v in value):
+                return None
+            xs = result = tuple(float(v) for v in value)
+        else:
+            return None
+    except OverflowError:  # an integer beyond the float range: the general path says so
+        return None
+    for x in xs:
+        if not math.isfinite(x):
+            return None
+        if low is not None and (x < low or (not inclusive and x == low)):
+            return None
+    return result
+
+
 def per_joint(
     name: str,
     value: object,
@@ -370,6 +398,9 @@ def per_joint(
         ``"{name} must be > {low}{why}, got {shown}"`` (``>=`` with ``inclusive``), where
         ``shown`` is ``value`` with its entries as floats.
     """
+    fast = _plain_per_joint(value, low, inclusive)
+    if fast is not None:
+        return fast
     if has_bool(value):
         raise ParameterTypeError(
             boolean
