@@ -288,3 +288,62 @@ def test_arm_numbers_are_numbers() -> None:
         with pytest.raises(ValueError, match=match) as info:
             call()
         assert not isinstance(info.value, TypeError)
+
+
+# ---------------------------------------------------------------------- the fast path
+def _general(values: object) -> object:
+    """The same numbers as numpy float64 scalars in a list: not Python floats, so the
+    constructor takes its general (numpy) path rather than the plain-Python fast one."""
+    return None if values is None else [np.float64(v) for v in values]  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_fast_and_general_paths_build_the_same_arm(seed: int) -> None:
+    """The plain-Python fast path (lists, tuples, float64 arrays) gives bit for bit the arm
+    of the numpy path, and so do ``scaled`` and ``with_payload`` on either."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 8))
+    m, ln = rng.uniform(0.1, 5.0, n), rng.uniform(0.1, 2.0, n)
+    com = rng.uniform(0.0, 1.0, n) * ln if seed % 2 else None
+    inertia = rng.uniform(0.0, 0.5, n) if seed % 3 else None
+    model = "rod" if seed % 4 == 0 else "point"
+    if model == "point" and com is not None and inertia is None:
+        com = np.maximum(com, 1e-3)  # a point link needs com > 0
+    kwargs = {"mass_model": model, "gravity": float(rng.uniform(0, 20))}
+    fast = PlanarArm(
+        m.tolist(), tuple(ln), com=com, inertia=None if inertia is None else list(inertia),
+        **kwargs,  # type: ignore[arg-type]
+    )  # fmt: skip
+    slow = PlanarArm(_general(m), _general(ln), com=_general(com), inertia=_general(inertia), **kwargs)  # type: ignore[arg-type]
+    assert np.array_equal(fast.packed, slow.packed) and fast.gravity == slow.gravity
+    fm, fl = rng.uniform(0.5, 1.5, n), float(rng.uniform(0.5, 1.5))
+    a, b = fast.scaled(mass=fm, length=fl), slow.scaled(mass=_general(fm), length=np.float64(fl))
+    assert np.array_equal(a.packed, b.packed)
+    assert np.array_equal(a.with_payload(0.7).packed, b.with_payload(np.float64(0.7)).packed)
+
+
+@pytest.mark.parametrize(
+    ("masses", "lengths", "kwargs", "message"),
+    [
+        ([1.0, float("nan")], [1.0, 1.0], {}, "masses must be finite"),
+        ([1.0, 2e6], [1.0, 1.0], {}, "masses must be > 0 and <= 1e+06 kg"),
+        ([1.0, 1.0], [1.0, 0.0], {}, "lengths must be > 0"),
+        ([1.0, 1.0], [1.0], {}, "lengths must have 2 values"),
+        ([1.0, 1.0], [1.0, 1.0], {"com": [0.0, 1.0]}, "link 1 has com = 0 and inertia = 0"),
+        ([1.0, 1.0], [1.0, 1.0], {"gravity": 1e4}, "gravity must be >= 0 and <= 1000"),
+        ([1.0, True], [1.0, 1.0], {}, "masses must be a sequence of numbers"),
+    ],
+)
+def test_plain_inputs_still_get_the_general_paths_errors(
+    masses: list[object], lengths: list[float], kwargs: dict[str, object], message: str
+) -> None:
+    with pytest.raises((ValueError, TypeError), match=_m(message)):
+        PlanarArm(masses, lengths, **kwargs)  # type: ignore[arg-type]
+
+
+def test_scaled_past_the_bounds_is_refused_on_the_fast_path() -> None:
+    arm = PlanarArm([5e5, 1.0], [1.0, 1.0])
+    with pytest.raises(ValueError, match=_m("masses must be > 0 and <= 1e+06 kg")):
+        arm.scaled(mass=[3.0, 1.0])
+    with pytest.raises(ValueError, match=_m("scale factors must be > 0 and <= 1000")):
+        arm.scaled(mass=[2e3, 1.0])

@@ -62,6 +62,70 @@ def _vector(name: str, value: ArrayLike, n: int | None) -> FloatArray:
     return arr
 
 
+def _plain_floats(value: object) -> list[float] | None:
+    """``value`` as a list of Python floats if it is a 1-D float64 array or a list or tuple of
+    Python floats and ints, else ``None`` (the general path converts and words any error)."""
+    kind = type(value)
+    if kind is np.ndarray:
+        assert isinstance(value, np.ndarray)
+        return value.tolist() if value.dtype == np.float64 and value.ndim == 1 else None
+    if kind is list or kind is tuple:
+        assert isinstance(value, list | tuple)
+        if all(type(v) is float or type(v) is int for v in value):
+            try:
+                return [float(v) for v in value]
+            except OverflowError:  # an integer beyond the float range
+                return None
+    return None
+
+
+def _valid_fast(
+    masses: object, lengths: object, com: object, inertia: object, mass_model: object,
+    gravity: object,
+) -> tuple[list[float], list[float], list[float] | None, list[float] | None, float] | None:
+    """The arm's parameters as Python floats if they pass every check of
+    :class:`PlanarArm` (bounds are written so that NaN fails them), else ``None``: the general
+    path, with numpy, then words the first failing check. A sweep builds two or three arms a
+    draw, and numpy's reductions on three-element arrays were most of their cost. The check
+    that no link has both com = 0 and inertia = 0 is the caller's, on the final arrays."""
+    if mass_model not in ("point", "rod") or not (type(gravity) is float or type(gravity) is int):
+        return None
+    m, ln = _plain_floats(masses), _plain_floats(lengths)
+    if m is None or ln is None or not m or len(ln) != len(m):
+        return None
+    if not all(0.0 < x <= MAX_MASS for x in m) or not all(0.0 < x <= MAX_LENGTH for x in ln):
+        return None
+    c = inert = None
+    if com is not None:
+        c = _plain_floats(com)
+        if c is None or len(c) != len(m) or not all(
+            0.0 <= x <= y for x, y in zip(c, ln, strict=True)
+        ):
+            return None
+    if inertia is not None:
+        inert = _plain_floats(inertia)
+        if inert is None or len(inert) != len(m) or not all(0.0 <= x <= MAX_INERTIA for x in inert):
+            return None
+    if not 0 <= gravity <= MAX_GRAVITY:
+        return None
+    return m, ln, c, inert, float(gravity)
+
+
+def _scale_factors(value: object, n: int) -> list[float] | None:
+    """:meth:`PlanarArm.scaled`'s factor as ``n`` Python floats, each in ``(0, MAX_SCALE]``,
+    for a Python number or a 1-D float64 array, list or tuple of one or ``n`` numbers; else
+    ``None`` (the general path words the error)."""
+    if type(value) is float or type(value) is int:
+        if not 0 < value <= MAX_SCALE:  # a huge integer too, before it meets float()
+            return None
+        xs: list[float] | None = [float(value)]
+    else:
+        xs = _plain_floats(value)
+    if xs is None or len(xs) not in (1, n) or not all(0.0 < x <= MAX_SCALE for x in xs):
+        return None
+    return xs * n if len(xs) == 1 else xs
+
+
 class PlanarArm(ArmModel):
     """An immutable planar serial arm with ``n >= 1`` revolute joints.
 
@@ -106,6 +170,24 @@ class PlanarArm(ArmModel):
         mass_model: MassModel = "point",
         gravity: float = 9.81,
     ) -> None:
+        fast = _valid_fast(masses, lengths, com, inertia, mass_model, gravity)
+        if fast is not None:
+            ml, lnl, cl, il, g = fast
+            m, ln = np.array(ml), np.array(lnl)
+            if cl is None:
+                c = ln.copy() if mass_model == "point" else ln / 2.0
+            else:
+                c = np.array(cl)
+            if il is None:
+                inert = np.zeros(m.shape[0]) if mass_model == "point" else m * ln**2 / 12.0
+            else:
+                inert = np.array(il)
+            # a link with com = 0 and inertia = 0: the general path words it
+            if not any(
+                x == 0.0 and y == 0.0 for x, y in zip(c.tolist(), inert.tolist(), strict=True)
+            ):
+                self._set(m, ln, c, inert, mass_model, g)
+                return
         m = _vector("masses", masses, None)
         n = m.shape[0]
         if n < 1:
@@ -146,6 +228,13 @@ class PlanarArm(ArmModel):
                 "inertia > 0, or M(q) can be singular (a mass on a joint axis belongs at the "
                 "previous link's tip)"
             )
+        self._set(m, ln, c, inert, mass_model, g)
+
+    def _set(
+        self, m: FloatArray, ln: FloatArray, c: FloatArray, inert: FloatArray, mass_model: str,
+        g: float,
+    ) -> None:
+        """Store the checked parameters, read-only."""
         packed = np.ascontiguousarray(np.stack([m, ln, c, inert]))
         for arr in (m, ln, c, inert):
             arr.setflags(write=False)
@@ -230,6 +319,16 @@ class PlanarArm(ArmModel):
         Centres of mass scale with the lengths (they stay at the same fraction of the link);
         centroidal inertias scale as :math:`m l^2`. Factors are scalars or per link.
         """
+        fast = [_scale_factors(f, self.n) for f in (mass, length)]
+        if fast[0] is not None and fast[1] is not None:
+            fm, fl = np.array(fast[0]), np.array(fast[1])
+            return PlanarArm(
+                self._masses * fm,
+                self._lengths * fl,
+                com=self._com * fl,
+                inertia=self._inertia * fm * fl**2,
+                gravity=self._gravity,
+            )
         factors = {
             "mass scale": _vector("mass scale", mass, None),
             "length scale": _vector("length scale", length, None),

@@ -545,26 +545,32 @@ def _results(
         for c in todo:
             yield c, run_chunk(definition, c)
         return
-    # a few chunks in flight: one is staged (Python) while another runs (numba, no GIL)
-    from concurrent.futures import FIRST_COMPLETED, wait
+    # the next chunks are drawn and staged (Python) in a second thread while this one runs a
+    # chunk on the batch engine's numba threads: one batch at a time, so that the engine's
+    # threads never compete with another batch's for the cores
+    from collections import deque
 
-    with ThreadPoolExecutor(threads) as ex:
+    with ThreadPoolExecutor(1) as ex:
         queue = iter(todo)
-        pending: dict[Future[pd.DataFrame], int] = {}
+        pending: deque[tuple[int, Future[StagedChunk]]] = deque()
 
         def fill() -> None:
-            for c in queue:
-                pending[ex.submit(run_chunk, definition, c)] = c
-                if len(pending) >= threads:
+            while len(pending) < threads - 1:
+                c = next(queue, None)
+                if c is None:
                     return
+                pending.append((c, ex.submit(_drawn_and_staged, definition, c)))
 
         fill()
         while pending:
-            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in sorted(finished, key=pending.__getitem__):
-                c = pending.pop(fut)
-                yield c, fut.result()
+            c, fut = pending.popleft()
+            staged = fut.result()
             fill()
+            yield c, chunk_table(definition, staged, simulate_chunk(definition, staged))
+
+
+def _drawn_and_staged(definition: SweepDefinition, c: int) -> StagedChunk:
+    return stage_chunk(definition, draw_chunk(definition, c))
 
 
 # --------------------------------------------------------------------------------------------
@@ -700,15 +706,17 @@ def sweep(
     chunk : int, optional
         Draws per chunk and shard (default :data:`DEFAULT_CHUNK`).
     executor : None, "local[:W]", str, distributed.Client or concurrent.futures.Executor
-        Where chunks run: ``None`` in this process (``threads`` chunks in flight, each on the
-        batch engine's numba threads); ``"local:W"`` a Dask ``LocalCluster`` of ``W``
-        processes; another string the address of a Dask scheduler; or a client or executor
-        of yours. The results do not depend on it.
+        Where chunks run: ``None`` in this process (one batch at a time on the batch engine's
+        numba threads, the next chunks staged meanwhile: ``threads``); ``"local:W"`` a Dask
+        ``LocalCluster`` of ``W`` processes; another string the address of a Dask scheduler;
+        or a client or executor of yours. The results do not depend on it.
     progress : callable, optional
         ``progress(done, total)`` in draws, after each chunk.
     threads : int
-        Chunks in flight with ``executor=None`` (each a batch on the batch engine's threads;
-        while one is staged in Python, another runs in compiled code).
+        With ``executor=None``: 1 draws, stages, simulates and tabulates each chunk in turn in
+        this thread; ``T >= 2`` draws and stages the next ``T - 1`` chunks in a second thread
+        while this one runs a chunk's batch (on the batch engine's numba threads, which
+        release the GIL) and tabulates it. One batch runs at a time either way.
     figures : bool
         Draw the figures.
     n_resamples : int
