@@ -210,7 +210,7 @@ def main() -> None:
         "--first-turn", type=int, default=0, help="number of the first turn (odd: batch first)"
     )
     ap.add_argument("--chunk", type=int, default=None, help="draws per chunk (default 64)")
-    ap.add_argument("--threads", type=int, default=2, help="chunks in flight (default 2)")
+    ap.add_argument("--threads", type=int, default=2, help="sweep threads: 1 in turn, 2 stages the next chunk meanwhile (default 2)")
     ap.add_argument(
         "--split", action=argparse.BooleanOptionalAction, default=True,
         help="time the sweep's pieces one by one too (default: yes)",
