@@ -105,6 +105,9 @@ def is_real(value: object, *, finite: bool = False) -> bool:
         ``True`` for Python and numpy integers and floats (any :class:`numbers.Real`) other
         than ``bool`` and ``np.bool_``.
     """
+    kind = type(value)
+    if kind is float or kind is int:  # the common case, without the ABC checks below
+        return not finite or math.isfinite(value)  # type: ignore[arg-type]
     if not isinstance(value, numbers.Real) or isinstance(value, bool | np.bool_):
         return False
     return not finite or math.isfinite(value)
@@ -112,6 +115,8 @@ def is_real(value: object, *, finite: bool = False) -> bool:
 
 def is_integer(value: object) -> bool:
     """Whether ``value`` is an integer (Python or numpy), not a boolean and not a float."""
+    if type(value) is int:  # the common case, without the ABC checks below
+        return True
     return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
 
 
