@@ -46,9 +46,21 @@ at ``q`` leaves in rows ``W_CS``, ``W_CS + 1`` the cosine and sine of each coord
 body's pose from them); those that go through :func:`kinematics_into` also leave in rows
 0-11 the body's rotation ``R_pc`` (rows 0-8) and origin ``r`` (rows 9-11) in its parent.
 
+The articulated-body algorithm keeps its per-body quantities in a buffer of groups of 8
+bodies (:func:`_aba`): on the stack for up to :data:`STACK_BODIES` bodies, in the workspace's
+rows :data:`W_AB` to ``W_CS - 1`` for a longer chain; rows 0-11 and ``W_CS`` are left as the
+kinematics left them.
+
 **Cost** (``benchmarks/bench_serial.py``): the kernels reached through an address borrow
 their arrays (:func:`_borrow`) and the spatial helpers are inlined, so a step pays neither
-reference-count atomics nor calls inside a pass.
+reference-count atomics nor calls inside a pass. The scalar passes are bound by the two
+floating-point multiply pipes, not by latency (measured: shortening the chains of passes 2
+and 3 by look-ahead gained nothing); so the part of the articulated-body pass that needs no
+other body (each body's inertia at the root and its bias force, about two thirds of its
+multiplications) runs as vector code over a group's 8 bodies, and the sines and cosines are
+inline arithmetic (:func:`_cos_sin`) rather than calls into libm. Measured on the UR5 (AMD
+EPYC, AVX-512, min of interleaved repeats): forward dynamics 0.49 -> 0.38 µs, an RK4 step
+with its kinematics 1.61 -> 1.29 µs, inverse dynamics 0.32 -> 0.26 µs.
 """
 
 from __future__ import annotations
