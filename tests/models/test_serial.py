@@ -1009,3 +1009,13 @@ def test_long_chains_match_pinocchio(n: int) -> None:
     scale = max(1.0, float(np.max(np.abs(v_ref))))
     assert np.max(np.abs(x - q_ref)) <= 1e-12 * scale
     assert np.max(np.abs(v - v_ref)) <= 1e-9 * scale
+
+
+def test_long_chain_buffer_fits_the_workspace() -> None:
+    """A chain longer than ``STACK_BODIES`` keeps the articulated-body buffer in the
+    workspace's rows ``W_AB`` to ``W_CS - 1``: they hold it at every length (the buffer grows
+    as 48 ceil(n / 8) groups' floats, the rows as 89 n)."""
+    from slidingarm.models import _spatial as SK
+
+    for n in range(SK.STACK_BODIES + 1, 400):
+        assert (SK.W_CS - SK.W_AB) * n >= SK.buffer_floats(n), n
