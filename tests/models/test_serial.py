@@ -959,3 +959,63 @@ def test_bad_arguments_name_the_problem() -> None:
         ur5.replace(gravity=-1.0)
     with pytest.raises(AttributeError, match="immutable"):
         ur5.tool = "x"  # type: ignore[misc]
+
+
+def _long_chain(rng: np.random.Generator, n: int) -> str:
+    """URDF of a random chain of ``n`` moving joints (revolute and prismatic, random axes and
+    origins, full inertias off the link frames), for lengths beyond ``random_chain``'s 9."""
+    from urdf_chains import _axis, _Joint, _Link, _massive_link, _origin
+
+    links = [_Link("world")]
+    joints = []
+    parent = "world"
+    for i in range(1, n + 1):
+        kind = "prismatic" if rng.random() < 0.2 else "revolute"
+        links.append(_massive_link(rng, f"link{i}"))
+        joints.append(_Joint(f"joint{i}", kind, parent, f"link{i}", *_origin(rng), axis=_axis(rng)))
+        parent = f"link{i}"
+    body = [link.urdf() for link in links] + [joint.urdf() for joint in joints]
+    return '<?xml version="1.0"?>\n<robot name="long">\n' + "\n".join(body) + "\n</robot>\n"
+
+
+@pytest.mark.parametrize("n", [15, 16, 17, 24])
+def test_long_chains_match_pinocchio(n: int) -> None:
+    """The articulated-body algorithm keeps its per-body buffer in groups of 8 bodies, on the
+    stack up to 16 bodies and in the workspace beyond: chains on both sides of those
+    boundaries give Pinocchio's q̈ (to 1e-9 of its scale) and classical RK4 on it."""
+    rng = np.random.default_rng(9_000 + n)
+    text = _long_chain(rng, n)
+    arm = SerialArm.from_urdf(text)
+    assert arm.n == n
+    model = pin_model(text)
+    q, qd = random_states(rng, arm.joint_types, 20)
+    tau = rng.uniform(-20.0, 20.0, q.shape)
+    assert _rel_err(arm.forward_dynamics(q, qd, tau), pin_aba(model, q, qd, tau)) <= TOL_PIN
+    h = 1e-3
+
+    def f(x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return pin_aba(model, x[None], v[None], tau[0][None])[0]
+
+    q0, v0 = q[0], qd[0]
+    k1 = f(q0, v0)
+    k2 = f(q0 + 0.5 * h * v0, v0 + 0.5 * h * k1)
+    k3 = f(q0 + 0.5 * h * (v0 + 0.5 * h * k1), v0 + 0.5 * h * k2)
+    k4 = f(q0 + h * (v0 + 0.5 * h * k2), v0 + h * k3)
+    v2, v3, v4 = v0 + 0.5 * h * k1, v0 + 0.5 * h * k2, v0 + h * k3
+    q_ref = q0 + h / 6 * (v0 + 2 * v2 + 2 * v3 + v4)
+    v_ref = v0 + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    x, v = q0.copy(), v0.copy()
+    assert SteppedArm(arm).step(x, v, tau[0], h)  # type: ignore[arg-type]
+    scale = max(1.0, float(np.max(np.abs(v_ref))))
+    assert np.max(np.abs(x - q_ref)) <= 1e-12 * scale
+    assert np.max(np.abs(v - v_ref)) <= 1e-9 * scale
+
+
+def test_long_chain_buffer_fits_the_workspace() -> None:
+    """A chain longer than ``STACK_BODIES`` keeps the articulated-body buffer in the
+    workspace's rows ``W_AB`` to ``W_CS - 1``: they hold it at every length (the buffer grows
+    as 48 ceil(n / 8) groups' floats, the rows as 89 n)."""
+    from slidingarm.models import _spatial as SK
+
+    for n in range(SK.STACK_BODIES + 1, 400):
+        assert (SK.W_CS - SK.W_AB) * n >= SK.buffer_floats(n), n
