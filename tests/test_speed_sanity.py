@@ -115,6 +115,16 @@ def test_time_loop_does_no_reference_counting(monkeypatch: pytest.MonkeyPatch) -
     )
     # a few on entry and exit at most; the loop over the samples has none
     assert body.count("@NRT_incref") <= 4
+    # nor do the kernels it calls once per sample (the law, the RK4 step), linked into it
+    kernels = {}
+    for f in re.split(r"\n(?=define )", ir):
+        name = re.match(r"define [^@]*@\"?([^\"(]+)", f)
+        if name and "run_one" not in name[1] and not name[1].startswith("NRT_"):
+            kernels[name[1]] = f
+    assert any("sliding_mode_into" in k for k in kernels), list(kernels)
+    assert any("rk4_step" in k for k in kernels), list(kernels)
+    for name, f in kernels.items():
+        assert f.count("@NRT_incref") == 0, name
 
 
 def test_paper_run_is_fast() -> None:
