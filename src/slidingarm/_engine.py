@@ -21,14 +21,14 @@ compiled per-run loop :func:`run_one` inlines them, and :func:`control_step` /
 have one semantics. The time loop allocates nothing and does no reference counting: every
 array it touches is a :func:`_borrow` alias. Workspace rows: :data:`WORKSPACE_ROWS`.
 
-What numba inlines in its IR and what it compiles once and calls: the step pieces and the
-dispatch on the law's and the plant's kind are inlined (small bodies); the sliding-mode law
+What numba inlines in its IR and what LLVM inlines: the step pieces and the dispatch on the
+law's and the plant's kind are inlined in numba's IR (small bodies); the sliding-mode law
 (:func:`slidingarm.control._kernels.sliding_mode_into`) and the planar RK4 step
-(:func:`slidingarm.models._kernels.rk4_step`) are functions of their own, called once per
-sample. Numba copies an inlined body once per level of inlining, and those two bodies
-inlined two and three levels deep made that copying half of the loop's first compilation
-(13 s then, 7-8 s since); the call costs nothing measurable per sample (the arrays they take
-are borrowed too, so their bodies count no references either).
+(:func:`slidingarm.models._kernels.rk4_step`) are compiled once each and inlined by LLVM
+(``forceinline``). Numba copies an IR-inlined body once per level of inlining, and those two
+bodies inlined two and three levels deep made that copying about half of the loop's first
+compilation (13-14 CPU-s then, 8-9 since); the loop's code is the same as before, one function
+(their arrays are borrowed too, so their bodies count no references either).
 """
 
 from __future__ import annotations

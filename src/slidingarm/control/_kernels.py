@@ -78,9 +78,9 @@ def pack(ci: np.ndarray, cf: np.ndarray) -> np.ndarray:
     return np.concatenate([np.asarray(ci, dtype=np.float64), np.ravel(cf)])
 
 
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
+# ``forceinline=False`` stated: numba hands a caller's ``forceinline`` on to the functions it
+# compiles while compiling the caller (:func:`sliding_mode_into` has it), and these stay calls.
+@njit(cache=True, nogil=True, error_model="numpy", forceinline=False)
 def pow_abs(x: float, g: float) -> float:
     """:math:`|x|^g` (``g > 0``) by :func:`slidingarm._vecmath.pow_abs` (at most 1 ulp),
     the function the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that
@@ -88,7 +88,7 @@ def pow_abs(x: float, g: float) -> float:
     return VM.pow_abs(x, g)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", forceinline=False)
 def tanh(x: float) -> float:
     """``tanh x`` by :func:`slidingarm._vecmath.tanh` (at most 1 ulp), as :func:`pow_abs`."""
     return VM.tanh(x)
@@ -229,7 +229,7 @@ def paper_entry(
         tau_out[i] = (-f_saved[i] - nu[i]) / col[i] - r[i]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
 def sliding_mode_into(
     p: np.ndarray,
     mkind: int,
@@ -251,11 +251,13 @@ def sliding_mode_into(
     :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q, \\dot q)` into
     ``tau_out`` (see :func:`control_into`, which adds the paper's law).
 
-    A function of its own, called once per sample, rather than inlined into the loop in numba's
-    IR: numba copies an inlined body once per level of inlining, and with this body inlined
-    three levels deep that copying was about half of the loop's first compilation. The arrays
-    are borrowed (:func:`slidingarm.models._kernels.borrow`): a call's arguments are counted
-    references, whose increments would otherwise stay in the body.
+    Compiled once as a function of its own and inlined by LLVM (``forceinline``: the
+    ``alwaysinline`` attribute) into the compiled function that calls it, rather than inlined in
+    numba's IR (``inline="always"``): numba copies an IR-inlined body once per level of
+    inlining, and with this body three levels deep into the loop that copying was about half
+    of the loop's first compilation. LLVM's inlining keeps the loop as fast as before (a call
+    per sample cost 8-13 % of the paper's run). The arrays are borrowed
+    (:func:`slidingarm.models._kernels.borrow`), so that the body counts no references.
     """
     p = PK.borrow(p)
     mparams = PK.borrow(mparams)
@@ -338,10 +340,11 @@ def control_into(
     :math:`\\tau_i = (-f_i - \\nu_i)/g_i - r_i` (no :math:`\\ddot q_d`, a row of
     :math:`M^{-1}` used as a scalar).
 
-    The surface, the reaching law and the model law are :func:`sliding_mode_into`, compiled
-    once; only the call of the paper's ``entry`` is inlined where this is called (``entry`` may
-    be a compiled function given statically, which a call of a compiled function cannot take
-    as an argument without losing numba's cache).
+    The surface, the reaching law and the model law are :func:`sliding_mode_into` (compiled
+    once, inlined by LLVM); only the call of the paper's ``entry`` is inlined in numba's IR
+    where this is called: ``entry`` may be a compiled function given statically
+    (:func:`slidingarm.control._dispatch.control_once`), which a compiled function cannot take
+    as an argument without losing numba's cache.
     """
     sliding_mode_into(
         p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work

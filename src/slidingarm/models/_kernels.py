@@ -64,7 +64,9 @@ WORK_ROWS = 8
 
 _CACHE = True
 #: The kernels below are inlined in numba's IR where they are called, except the sine and
-#: cosine and the RK4 step (compiled once each, see :func:`rk4_step`).
+#: cosine (one compiled body called everywhere; ``forceinline=False`` stated, as numba would
+#: otherwise hand on the ``forceinline`` of the caller it is first compiled for) and the RK4
+#: step (compiled once and inlined by LLVM, see :func:`rk4_step`).
 _INLINE = "always"
 
 
@@ -87,7 +89,7 @@ def borrow(typingctx, arr):  # type: ignore[no-untyped-def]
     return arr(arr), codegen
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy")
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=False)
 def sincos(x: float) -> tuple[float, float]:
     """``(sin x, cos x)`` by :func:`slidingarm._vecmath.sincos` (at most 1 ulp), the function
     the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that a run's
@@ -569,7 +571,7 @@ _RK_BASE = 7  # 2 rows: the sines and cosines of the step's start
 RK4_ROWS = 9
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy")
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def rk4_step(
     arm: np.ndarray,
     g: float,
@@ -588,10 +590,11 @@ def rk4_step(
     (in ``work`` rows 0-1 already if ``known``) rotated by the stage's step
     (:func:`shifted_angles_into`). Returns ``False`` if a mass matrix was not positive definite.
 
-    A function of its own, called once per step, rather than inlined in numba's IR into the
-    loop (through :func:`slidingarm.models._dispatch.rk4_step`): numba copies an inlined body
-    once per level of inlining, and the copies of this one, two levels deep, cost about a
-    second of the loop's first compilation. The arrays are borrowed (:func:`borrow`).
+    Compiled once as a function of its own and inlined by LLVM (``forceinline``) into the
+    compiled function that calls it, rather than inlined in numba's IR: numba copies an
+    IR-inlined body once per level of inlining, and the copies of this one, two levels deep into
+    the loop (through :func:`slidingarm.models._dispatch.rk4_step`), cost about a second of the
+    loop's first compilation. The arrays are borrowed (:func:`borrow`).
     """
     arm = borrow(arm)
     q = borrow(q)
