@@ -10,8 +10,9 @@ machine's load average; then the median of the wall times of each kind.
 
 With ``--phases`` one more run (cold) goes through :func:`slidingarm.study.reproduce` in this
 benchmark's own child process and prints the wall and CPU time of each step (the progress
-callback's) and the compile time of each numba dispatcher (numba's ``numba:compile`` events,
-CPU seconds, nested compilations included in their caller's).
+callback's) and the compile time of each numba dispatcher of the main process (numba's
+``numba:compile`` events, CPU seconds): its total, which includes the callees compiled
+during its compilation, and its own share.
 """
 
 from __future__ import annotations
@@ -32,16 +33,30 @@ import collections, json, os, sys, time
 from numba.core import event
 
 compile_cpu = collections.defaultdict(float)
-starts = {}
+compile_self = collections.defaultdict(float)
+stack = []
+
+
+def _name(d):
+    return d.py_func.__module__.rsplit(".", 1)[-1] + "." + d.py_func.__qualname__
 
 
 class Listener(event.Listener):
+    # a dispatcher's compilation includes those of the functions it calls that were not
+    # compiled yet: its total (inclusive) and its own share (exclusive) are both kept
     def on_start(self, e):
-        starts[id(e.data["dispatcher"])] = time.process_time()
+        now = time.process_time()
+        if stack:
+            compile_self[stack[-1][0]] += now - stack[-1][2]
+        stack.append([_name(e.data["dispatcher"]), now, now])
 
     def on_end(self, e):
-        d = e.data["dispatcher"]
-        compile_cpu[d.py_func.__qualname__] += time.process_time() - starts.pop(id(d))
+        now = time.process_time()
+        name, start, mark = stack.pop()
+        compile_self[name] += now - mark
+        compile_cpu[name] += now - start
+        if stack:
+            stack[-1][2] = now
 
 
 def main():
@@ -56,7 +71,7 @@ def main():
 
     reproduce(sys.argv[1], progress=progress)
     times = os.times()
-    print(json.dumps({"marks": marks, "compile": compile_cpu,
+    print(json.dumps({"marks": marks, "compile": compile_cpu, "self": compile_self,
                       "children": times.children_user + times.children_system}))
 
 
@@ -109,9 +124,12 @@ def phases(cache: str, out: Path) -> None:
             print(f"  {wall:7.2f}  +{wall - prev_wall:5.2f} wall  +{cpu - prev_cpu:5.2f} cpu  {what}")
         prev_wall, prev_cpu = wall, cpu
     print(f"  main process CPU {prev_cpu:.2f} s; figure workers (children) {body['children']:.2f} s")
-    print("numba compile CPU by dispatcher (s):")
+    print("numba compile CPU of the main process by dispatcher (s; total includes the")
+    print("callees it compiled, self does not; the self column adds up to all compilation):")
+    print(f"  {'total':>6s} {'self':>6s}")
     for name, sec in sorted(body["compile"].items(), key=lambda kv: -kv[1]):
-        print(f"  {sec:6.2f}  {name}")
+        print(f"  {sec:6.2f} {body['self'][name]:6.2f}  {name}")
+    print(f"  {'':6s} {sum(body['self'].values()):6.2f}  all")
 
 
 def main() -> None:

@@ -20,6 +20,15 @@ compiled per-run loop :func:`run_one` inlines them, and :func:`control_step` /
 (:func:`slidingarm.simulate` with a :class:`~slidingarm.plants.SteppedPlant`), so both loops
 have one semantics. The time loop allocates nothing and does no reference counting: every
 array it touches is a :func:`_borrow` alias. Workspace rows: :data:`WORKSPACE_ROWS`.
+
+What numba inlines in its IR and what LLVM inlines: the step pieces and the dispatch on the
+law's and the plant's kind are inlined in numba's IR (small bodies); the sliding-mode law
+(:func:`slidingarm.control._kernels.sliding_mode_into`) and the planar RK4 step
+(:func:`slidingarm.models._kernels.rk4_step`) are compiled once each and inlined by LLVM
+(``forceinline``). Numba copies an IR-inlined body once per level of inlining, and those two
+bodies inlined two and three levels deep made that copying about half of the loop's first
+compilation (13-14 CPU-s then, 8-9 since); the loop's code is the same as before, one function
+(their arrays are borrowed too, so their bodies count no references either).
 """
 
 from __future__ import annotations
@@ -28,13 +37,12 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import njit
 
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
 from slidingarm.models import _dispatch as MD
+from slidingarm.models import _kernels as PK
 
 VEL_TRUE = 0
 VEL_DIFFERENCE = 1
@@ -54,25 +62,13 @@ STATUS_RUNAWAY = 2
 STATUS_SINGULAR = 3
 
 
-@intrinsic
-def _borrow(typingctx, arr):  # type: ignore[no-untyped-def]
-    """An alias of the array ``arr`` that takes no part in reference counting.
-
-    Numba reference-counts array variables, and in the inlined kernels of the time loop every
-    function argument and row view is one; its LLVM pass removes only some of those atomic
-    increments and decrements, which then took a fifth of the loop's time. The alias has a
-    null memory-info pointer, so all of them compile away. The caller must keep ``arr``
-    alive while the alias is in use: here every borrowed array is (a view of) an argument of
-    :func:`run_one`, which its caller holds.
-    """
-    if not isinstance(arr, types.Array):
-        return None
-
-    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
-        ary = args[0]
-        return builder.insert_value(ary, cgutils.get_null_value(ary.type.elements[0]), 0)
-
-    return arr(arr), codegen
+#: An alias of an array that takes no part in reference counting
+#: (:func:`slidingarm.models._kernels.borrow`). Numba reference-counts array variables, and in
+#: the inlined kernels of the time loop every function argument and row view is one; its LLVM
+#: pass removes only some of those atomic increments and decrements, which then took a fifth
+#: of the loop's time. Every borrowed array here is (a view of) an argument of
+#: :func:`run_one`, which its caller holds.
+_borrow = PK.borrow
 
 
 # rows of the per-run workspace (n columns): state and measurement vectors, the held input,

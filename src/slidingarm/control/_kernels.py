@@ -26,6 +26,7 @@ from numba import njit
 
 from slidingarm import _vecmath as VM
 from slidingarm.models import _dispatch as MD
+from slidingarm.models import _kernels as PK
 
 # --- integer codes: ci[CI_*] ------------------------------------------------------------------
 CI_SURFACE = 0
@@ -77,9 +78,9 @@ def pack(ci: np.ndarray, cf: np.ndarray) -> np.ndarray:
     return np.concatenate([np.asarray(ci, dtype=np.float64), np.ravel(cf)])
 
 
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
+# ``forceinline=False`` stated: numba hands a caller's ``forceinline`` on to the functions it
+# compiles while compiling the caller (:func:`sliding_mode_into` has it), and these stay calls.
+@njit(cache=True, nogil=True, error_model="numpy", forceinline=False)
 def pow_abs(x: float, g: float) -> float:
     """:math:`|x|^g` (``g > 0``) by :func:`slidingarm._vecmath.pow_abs` (at most 1 ulp),
     the function the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that
@@ -87,7 +88,7 @@ def pow_abs(x: float, g: float) -> float:
     return VM.pow_abs(x, g)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", forceinline=False)
 def tanh(x: float) -> float:
     """``tanh x`` by :func:`slidingarm._vecmath.tanh` (at most 1 ulp), as :func:`pow_abs`."""
     return VM.tanh(x)
@@ -228,6 +229,80 @@ def paper_entry(
         tau_out[i] = (-f_saved[i] - nu[i]) / col[i] - r[i]
 
 
+@njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
+def sliding_mode_into(
+    p: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """The sliding-mode law's compiled body: ``s`` into ``s_out``, :math:`\\nu` and
+    :math:`r` into their ``work`` rows, and with ``law = model`` the torque
+    :math:`\\tau = \\hat M(q)(\\ddot q_d - \\nu - r) + \\hat h(q, \\dot q)` into
+    ``tau_out`` (see :func:`control_into`, which adds the paper's law).
+
+    Compiled once as a function of its own and inlined by LLVM (``forceinline``: the
+    ``alwaysinline`` attribute) into the compiled function that calls it, rather than inlined in
+    numba's IR (``inline="always"``): numba copies an IR-inlined body once per level of
+    inlining, and with this body three levels deep into the loop that copying was about half
+    of the loop's first compilation. LLVM's inlining keeps the loop as fast as before (a call
+    per sample cost 8-13 % of the paper's run). The arrays are borrowed
+    (:func:`slidingarm.models._kernels.borrow`), so that the body counts no references.
+    """
+    p = PK.borrow(p)
+    mparams = PK.borrow(mparams)
+    q = PK.borrow(q)
+    qd = PK.borrow(qd)
+    q_ref = PK.borrow(q_ref)
+    qd_ref = PK.borrow(qd_ref)
+    qdd_ref = PK.borrow(qdd_ref)
+    st_state = PK.borrow(st_state)
+    tau_out = PK.borrow(tau_out)
+    s_out = PK.borrow(s_out)
+    work = PK.borrow(work)
+    n = q.shape[0]
+    swcode = p[CI_SWITCHING]
+    classic = p[CI_REACHING] == REACH_CLASSIC
+    # a planar nominal model is what the block loop (slidingarm._block) runs: its powers and
+    # tanh by the block's vectorisable functions, so that both loops compute the same bits;
+    # the serial kind keeps libm's (no block loop for it yet)
+    vec = mkind == MD.KIND_PLANAR
+    nu = work[_ROW_NU]
+    r = work[_ROW_R]
+    acc = work[_ROW_ACC]
+    # the surface of every joint, then the reaching term of every joint: two loops, each with
+    # one kind of libm call (pow, then tanh), ran the FTSMC-with-tanh law about 0.1 µs (of
+    # about 1 µs) quicker on the UR5 than one loop alternating the two, with the same results
+    # (benchmarks/bench_serial.py)
+    for j in range(n):
+        s, nu_j = _surface_joint(p, j, n, q[j] - q_ref[j], qd[j] - qd_ref[j], vec)
+        s_out[j] = s
+        nu[j] = nu_j
+    for j in range(n):
+        s = s_out[j]
+        # reaching term r
+        if classic:
+            r[j] = p[NCI + CF_K * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j], vec)
+        else:
+            r[j] = p[NCI + CF_K * n + j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
+            st_state[j] += dt * p[NCI + CF_K2 * n + j] * switch(
+                swcode, s, p[NCI + CF_WIDTH * n + j], vec
+            )
+        acc[j] = qdd_ref[j] - nu[j] - r[j]
+    if p[CI_LAW] == LAW_MODEL:
+        MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def control_into(
     entry: Any,
@@ -264,39 +339,17 @@ def control_into(
     :math:`f = -\\hat M^{-1}\\hat h` and :math:`g_i = [\\hat M^{-1}]_{ii}`,
     :math:`\\tau_i = (-f_i - \\nu_i)/g_i - r_i` (no :math:`\\ddot q_d`, a row of
     :math:`M^{-1}` used as a scalar).
+
+    The surface, the reaching law and the model law are :func:`sliding_mode_into` (compiled
+    once, inlined by LLVM); only the call of the paper's ``entry`` is inlined in numba's IR
+    where this is called: ``entry`` may be a compiled function given statically
+    (:func:`slidingarm.control._dispatch.control_once`), which a compiled function cannot take
+    as an argument without losing numba's cache.
     """
-    n = q.shape[0]
-    swcode = p[CI_SWITCHING]
-    classic = p[CI_REACHING] == REACH_CLASSIC
-    # a planar nominal model is what the block loop (slidingarm._block) runs: its powers and
-    # tanh by the block's vectorisable functions, so that both loops compute the same bits;
-    # the serial kind keeps libm's (no block loop for it yet)
-    vec = mkind == MD.KIND_PLANAR
-    nu = work[_ROW_NU]
-    r = work[_ROW_R]
-    acc = work[_ROW_ACC]
-    # the surface of every joint, then the reaching term of every joint: two loops, each with
-    # one kind of libm call (pow, then tanh), ran the FTSMC-with-tanh law about 0.1 µs (of
-    # about 1 µs) quicker on the UR5 than one loop alternating the two, with the same results
-    # (benchmarks/bench_serial.py)
-    for j in range(n):
-        s, nu_j = _surface_joint(p, j, n, q[j] - q_ref[j], qd[j] - qd_ref[j], vec)
-        s_out[j] = s
-        nu[j] = nu_j
-    for j in range(n):
-        s = s_out[j]
-        # reaching term r
-        if classic:
-            r[j] = p[NCI + CF_K * n + j] * switch(swcode, s, p[NCI + CF_WIDTH * n + j], vec)
-        else:
-            r[j] = p[NCI + CF_K * n + j] * math.sqrt(abs(s)) * _sign(s) + st_state[j]
-            st_state[j] += dt * p[NCI + CF_K2 * n + j] * switch(
-                swcode, s, p[NCI + CF_WIDTH * n + j], vec
-            )
-        acc[j] = qdd_ref[j] - nu[j] - r[j]
-    if p[CI_LAW] == LAW_MODEL:
-        MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)
-    else:
+    sliding_mode_into(
+        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work
+    )
+    if p[CI_LAW] != LAW_MODEL:
         # the paper's law, through its pointer (:func:`paper_entry`)
         entry(kernel, 0.0, p, st_state, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref,
               tau_out, s_out, mats, work)  # fmt: skip

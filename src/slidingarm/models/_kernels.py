@@ -36,7 +36,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from slidingarm import _vecmath as VM
 
@@ -61,10 +63,33 @@ __all__ = [
 WORK_ROWS = 8
 
 _CACHE = True
+#: The kernels below are inlined in numba's IR where they are called, except the sine and
+#: cosine (one compiled body called everywhere; ``forceinline=False`` stated, as numba would
+#: otherwise hand on the ``forceinline`` of the caller it is first compiled for) and the RK4
+#: step (compiled once and inlined by LLVM, see :func:`rk4_step`).
 _INLINE = "always"
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy")
+@intrinsic
+def borrow(typingctx, arr):  # type: ignore[no-untyped-def]
+    """An alias of the array ``arr`` that takes no part in reference counting.
+
+    Numba reference-counts array variables: every argument and row view of a kernel is one,
+    and its LLVM pass removes only some of the increments and decrements, each a call. The
+    alias has a null memory-info pointer, so all of them compile away. The caller must keep
+    ``arr`` alive while the alias is in use (an argument of a kernel is: its caller holds it).
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        ary = args[0]
+        return builder.insert_value(ary, cgutils.get_null_value(ary.type.elements[0]), 0)
+
+    return arr(arr), codegen
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=False)
 def sincos(x: float) -> tuple[float, float]:
     """``(sin x, cos x)`` by :func:`slidingarm._vecmath.sincos` (at most 1 ulp), the function
     the block loop (:mod:`slidingarm._block`) inlines into its lane loops, so that a run's
@@ -546,7 +571,7 @@ _RK_BASE = 7  # 2 rows: the sines and cosines of the step's start
 RK4_ROWS = 9
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def rk4_step(
     arm: np.ndarray,
     g: float,
@@ -564,7 +589,19 @@ def rk4_step(
     recomputed from them) and small vectors. The stages' sines and cosines are those of ``q``
     (in ``work`` rows 0-1 already if ``known``) rotated by the stage's step
     (:func:`shifted_angles_into`). Returns ``False`` if a mass matrix was not positive definite.
+
+    Compiled once as a function of its own and inlined by LLVM (``forceinline``) into the
+    compiled function that calls it, rather than inlined in numba's IR: numba copies an
+    IR-inlined body once per level of inlining, and the copies of this one, two levels deep into
+    the loop (through :func:`slidingarm.models._dispatch.rk4_step`), cost about a second of the
+    loop's first compilation. The arrays are borrowed (:func:`borrow`).
     """
+    arm = borrow(arm)
+    q = borrow(q)
+    qd = borrow(qd)
+    tau = borrow(tau)
+    scratch = borrow(scratch)
+    work = borrow(work)
     n = q.shape[0]
     k = scratch[_RK_K : _RK_K + 4]
     dq = scratch[_RK_DQ]
