@@ -78,6 +78,7 @@ DEFAULT_WIDTH = 0.05
 
 #: The inputs of :meth:`SlidingModeController.evaluate`, in order (their names in messages).
 _INPUT_NAMES: tuple[str, ...] = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
+_N_INPUTS = len(_INPUT_NAMES)
 #: :func:`_evaluate_checked`'s code for a call whose inputs and outputs are all finite.
 _OK = -1
 #: :func:`_evaluate_checked`'s code for an input of another shape than (n,).
@@ -90,16 +91,30 @@ _F64 = np.dtype(np.float64)
 _CHECKED_READY: list[bool] = []
 
 
+def _scratch_rows(n: int) -> int:
+    """Rows of a controller's scratch (n columns): the compiled law's,
+    ``CK.CONTROL_WORK_ROWS + 2 n``, then one for a copy of each input of a validated call
+    (:func:`_evaluate_checked`)."""
+    return CK.CONTROL_WORK_ROWS + 2 * n + _N_INPUTS
+
+
 def _add_checked_signature(c: SlidingModeController) -> bool:
-    """Compile :func:`_evaluate_checked` for controller ``c``'s own arrays and float64
-    C-contiguous writable inputs, if not yet done; then no other signature is compiled at call
-    time, so that an input of another type raises ``TypeError`` (the general path) rather
-    than compiling a specialisation for it. Returns whether a signature was added."""
+    """Compile :func:`_evaluate_checked` for controller ``c``'s own arrays and any
+    one-dimensional float64 inputs, if not yet done; then no other signature is compiled at
+    call time, so that an input of another type raises ``TypeError`` (the general path)
+    rather than compiling a specialisation for it. Returns whether a signature was added.
+
+    The inputs are typed read-only, possibly unaligned, of any layout (``'A'``): numba
+    converts every one-dimensional float64 array to that type (contiguous or strided,
+    writable or not), so that the Python side checks only the inputs' type and dtype; the
+    compiled call copies them into contiguous rows of the scratch before the law reads them.
+    """
     from numba import typeof, types
 
     vec = types.float64[::1]
+    vin = types.Array(types.float64, 1, "A", readonly=True, aligned=False)
     sig = (
-        typeof(c._p), types.int64, typeof(c._mparams), types.float64, vec, vec, vec, vec, vec,
+        typeof(c._p), types.int64, typeof(c._mparams), types.float64, vin, vin, vin, vin, vin,
         typeof(c._state), types.float64, vec, vec, typeof(c._scratch), typeof(c._saved),
     )  # fmt: skip
     if any(tuple(known) == sig for known in _evaluate_checked.signatures):
@@ -143,13 +158,19 @@ def _evaluate_checked(
 ) -> int:
     """:func:`slidingarm.control._dispatch.control_once` with the checks of a validated call.
 
+    The five inputs (n,), of any layout, are first copied into the last five rows of
+    ``scratch`` (:func:`_scratch_rows`), contiguous, which the law then reads: the same
+    values, so the same torque, bit for bit, as the law on the inputs themselves.
+
     Returns :data:`_OK` (-1) when every input and output is finite; ``i`` in 0..4 when input
     ``i`` (in :data:`_INPUT_NAMES` order) holds a NaN or an infinity, before anything is
     computed; ``5 + j`` when the torque or ``s`` of joint ``j`` is not finite, with the
     super-twisting integral ``st_state`` restored to its value before the call (kept in
-    ``saved``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs' length ``n``.
+    ``saved``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs' length ``n`` (or
+    ``scratch`` has not the rows of :func:`_scratch_rows`).
     """
     n = tau_out.shape[0]
+    base = CK.CONTROL_WORK_ROWS + 2 * n
     if (
         q.shape[0] != n
         or qd.shape[0] != n
@@ -157,22 +178,24 @@ def _evaluate_checked(
         or qd_ref.shape[0] != n
         or qdd_ref.shape[0] != n
         or s_out.shape[0] != n
+        or scratch.shape[0] != base + _N_INPUTS
+        or scratch.shape[1] != n
     ):
         return _BAD_SHAPE
-    if _first_nonfinite(q) >= 0:
-        return 0
-    if _first_nonfinite(qd) >= 0:
-        return 1
-    if _first_nonfinite(q_ref) >= 0:
-        return 2
-    if _first_nonfinite(qd_ref) >= 0:
-        return 3
-    if _first_nonfinite(qdd_ref) >= 0:
-        return 4
+    x = scratch[base:]
+    for j in range(n):
+        x[0, j] = q[j]
+        x[1, j] = qd[j]
+        x[2, j] = q_ref[j]
+        x[3, j] = qd_ref[j]
+        x[4, j] = qdd_ref[j]
+    for i in range(_N_INPUTS):
+        if _first_nonfinite(x[i]) >= 0:
+            return i
     for j in range(n):
         saved[j] = st_state[j]
     LD.control_once(
-        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out,
+        p, mkind, mparams, g, x[0], x[1], x[2], x[3], x[4], st_state, dt, tau_out, s_out,
         scratch,
     )  # fmt: skip
     for j in range(n):
@@ -320,7 +343,7 @@ class SlidingModeController(Controller):
         self._width = None if switching == "sign" else ww
         self._k2 = None if reaching == "classic" else kk2
         # Python call path: preallocated scratch and the super-twisting integral
-        self._scratch = np.empty((CK.CONTROL_WORK_ROWS + 2 * n, n))
+        self._scratch = np.empty((_scratch_rows(n), n))
         self._state = np.zeros(n)
         self._s = np.empty(n)
         self._saved = np.empty(n)  # the integral before a validated call, restored on refusal
@@ -589,16 +612,12 @@ class SlidingModeController(Controller):
             and self._law != "paper"
             and type(q) is type(qd) is type(q_ref) is type(qd_ref) is type(qdd_ref) is np.ndarray
             and q.dtype is qd.dtype is q_ref.dtype is qd_ref.dtype is qdd_ref.dtype is _F64
-            and q.flags.carray
-            and qd.flags.carray
-            and q_ref.flags.carray
-            and qd_ref.flags.carray
-            and qdd_ref.flags.carray
         ):
-            # the fast path, for inputs already of the kernel's type (float64 arrays,
-            # C-contiguous, aligned and writable; O(1) checks here): the dimensions are the
-            # dispatcher's to check (it compiles no other signature, so another raises
-            # TypeError), the shape and finiteness of the inputs and outputs the compiled call's
+            # the fast path, for float64 arrays (native byte order; O(1) checks here): the
+            # number of dimensions is the dispatcher's to check (it compiles no other
+            # signature, so another raises TypeError; any layout, writable or not, converts
+            # to the inputs' type), the shape and finiteness of the inputs and outputs the
+            # compiled call's
             try:
                 if not _CHECKED_READY:
                     raise TypeError
