@@ -79,6 +79,7 @@ DEFAULT_WIDTH = 0.05
 
 #: The inputs of :meth:`SlidingModeController.evaluate`, in order (their names in messages).
 _INPUT_NAMES: tuple[str, ...] = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
+#: Their number (a constant of the compiled checks).
 _N_INPUTS = len(_INPUT_NAMES)
 #: :func:`_evaluate_checked`'s code for a call whose inputs and outputs are all finite.
 _OK = -1
@@ -168,8 +169,8 @@ def _evaluate_checked(
     ``i`` (in :data:`_INPUT_NAMES` order) holds a NaN or an infinity, before anything is
     computed; ``5 + j`` when the torque or ``s`` of joint ``j`` is not finite, with the
     super-twisting integral ``st_state`` restored to its value before the call (kept in the
-    last row of ``scratch``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs' length ``n`` (or
-    ``scratch`` has not the rows of :func:`_scratch_rows`).
+    last row of ``scratch``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs'
+    length ``n`` (or ``scratch`` has not the rows of :func:`_scratch_rows`).
     """
     n = tau_out.shape[0]
     base = CK.CONTROL_WORK_ROWS + 2 * n
