@@ -8,13 +8,17 @@ In one run, for 1 and 2 threads and each batch size ``B``, the paper's arm (3 jo
 
 * the block path (:mod:`slidingarm._block`, taken by ``simulate_batch`` for ``B >= 16``),
 * the scalar path (the same call with ``simulate.BLOCK_MIN_RUNS`` raised above ``B``),
-* a plain numba ``prange`` loop over scalar runs written here (``_numba_reference.closed_loop``
-  per run, each run's MSE per joint as its metric), the reference of issue 12,
+* a plain numba ``prange`` loop over scalar runs written here (``_numba_reference.closed_loop_mse``
+  per run: the same loop, each run's MSE per joint accumulated as its metric, no trace kept),
+  the reference of issue 12,
 
-and the ratios block / scalar and block / reference. Each figure is the median of
-``--repeats`` timings that take turns (block, scalar, reference), so that a change of the
-machine's load shows in all three; the load average is printed with the table. Targets (issue
-12): at ``B = 10 000`` on 2 threads at least 1.5e7 arm-steps/s and at least 5x the reference.
+and the ratios block / scalar and block / reference. Before timing, the reference is checked to
+run the same loop as ours: its trajectory of the paper's run within 1e-9 rad of both our
+paths', and its MSE of 16 perturbed runs within 1e-6 (relative) of our ``mse`` metric. Each
+figure is the median of ``--repeats`` timings that take turns (block, scalar, reference), so
+that a change of the machine's load shows in all three; the load average is printed with the
+table. Targets (issue 12): at ``B = 10 000`` on 2 threads at least 1.5e7 arm-steps/s and at
+least 5x the reference.
 The threads of ``simulate_batch`` follow ``numba.config.NUMBA_NUM_THREADS``, those of the
 reference ``numba.set_num_threads``; both are set per row.
 """
@@ -41,6 +45,8 @@ T_FINAL = 4.5
 STEPS = 9000
 TARGET_RATE = 1.5e7
 TARGET_RATIO = 5.0
+REFERENCE_DEV = 1e-9
+REFERENCE_MSE_REL = 1e-6
 
 
 @njit(parallel=True, cache=True)
@@ -58,15 +64,8 @@ def prange_batch(
 ) -> None:
     """The reference: each run the plain scalar loop, runs spread over numba's threads, the MSE
     per joint of each run into ``mse`` (B, n)."""
-    nt, n = q_ref.shape
     for b in prange(q0s.shape[0]):
-        qs = NR.closed_loop(m, ln, g, q0s[b], qd0, q_ref, qd_ref, qdd_ref, dt)
-        for j in range(n):
-            acc = 0.0
-            for k in range(nt):
-                e = qs[k, j] - q_ref[k, j]
-                acc += e * e
-            mse[b, j] = acc / nt
+        NR.closed_loop_mse(m, ln, g, q0s[b], qd0, q_ref, qd_ref, qdd_ref, dt, mse[b])
 
 
 def problem() -> tuple[sa.PlanarArm, sa.FTSMC, sa.PaperReference]:
@@ -79,19 +78,70 @@ def initial_states(b: int) -> np.ndarray:
     return np.asarray(PAPER_Q0) + np.random.default_rng(0).normal(0.0, 0.01, (b, 3))
 
 
-def ours(path: str, b: int, q0: np.ndarray) -> float:
-    """Seconds of one ``simulate_batch`` of ``b`` runs on ``path``."""
+def batch(path: str, q0: np.ndarray, record: str = "metrics") -> sa.BatchResult:
+    """One ``simulate_batch`` of the runs from ``q0`` (B, 3) on ``path``."""
     arm, ctrl, ref = problem()
     saved = S.BLOCK_MIN_RUNS
     S.BLOCK_MIN_RUNS = saved if path == "block" else 10**12
     try:
-        t0 = time.perf_counter()
-        out = sa.simulate_batch(arm, ctrl, ref, q0=q0, t_final=T_FINAL, dt=DT, record="metrics")
-        dt = time.perf_counter() - t0
+        return sa.simulate_batch(arm, ctrl, ref, q0=q0, t_final=T_FINAL, dt=DT, record=record)
     finally:
         S.BLOCK_MIN_RUNS = saved
+
+
+def ours(path: str, b: int, q0: np.ndarray) -> float:
+    """Seconds of one ``simulate_batch`` of ``b`` runs on ``path``."""
+    t0 = time.perf_counter()
+    out = batch(path, q0)
+    dt = time.perf_counter() - t0
     assert out.metric_values is not None and np.all(out.ok)
     return dt
+
+
+def check_reference(q0: np.ndarray, inputs: tuple[np.ndarray, ...]) -> str:
+    """Check that the reference runs our loop; returns a line saying by how much they differ.
+
+    On the paper's run (from ``PAPER_Q0``) the reference's trajectory must be within
+    :data:`REFERENCE_DEV` of both our paths' (``record="full"``). On the runs from ``q0`` (B, 3)
+    its MSE must be within :data:`REFERENCE_MSE_REL` of our ``mse`` metric: there a trajectory
+    may not stay within 1e-9, because the sign law is discontinuous (a sample whose ``s`` is
+    within rounding of zero can switch the other way in one implementation, and from then on
+    the two runs differ by that sample's kick, about 1e-5 rad at most on the benchmark's runs);
+    the largest difference of ``q`` over those runs is printed, not checked.
+    """
+    m, ln, g, qr, qdr, qddr = inputs
+    qd0 = np.zeros(3)
+    paper = np.array([PAPER_Q0])
+    mine = NR.closed_loop(m, ln, g, paper[0], qd0, qr, qdr, qddr, DT)
+    devs = {}
+    for path in ("block", "scalar"):
+        full = batch(path, paper, record="full")
+        assert full.q is not None and np.all(full.ok)
+        devs[path] = float(np.abs(mine - full.q[0]).max())
+        if not devs[path] <= REFERENCE_DEV:
+            raise AssertionError(
+                f"on the paper's run the reference's q differs from the {path} path's by "
+                f"{devs[path]:.1e} rad (> {REFERENCE_DEV:g}): they do not run the same loop"
+            )
+    mse = np.empty((q0.shape[0], 3))
+    prange_batch(m, ln, g, q0, qd0, qr, qdr, qddr, DT, mse)
+    metrics = batch("block", q0).metric_values
+    assert metrics is not None
+    mse_dev = float(np.max(np.abs(mse / metrics["mse"] - 1.0)))
+    if not mse_dev <= REFERENCE_MSE_REL:
+        raise AssertionError(
+            f"the reference's MSE differs from ours by {mse_dev:.1e} (relative, > "
+            f"{REFERENCE_MSE_REL:g}) on {q0.shape[0]} runs: they do not run the same loop"
+        )
+    full = batch("block", q0, record="full")
+    assert full.q is not None
+    runs = np.stack([NR.closed_loop(m, ln, g, q, qd0, qr, qdr, qddr, DT) for q in q0])
+    q_dev = float(np.abs(runs - full.q).max())
+    return (
+        f"reference vs ours: paper run max |dq| {devs['block']:.1e} rad (block path), "
+        f"{devs['scalar']:.1e} rad (scalar path); {q0.shape[0]} perturbed runs: MSE relative "
+        f"difference {mse_dev:.1e}, max |dq| {q_dev:.1e} rad (sign law)"
+    )
 
 
 def reference(q0: np.ndarray, inputs: tuple[np.ndarray, ...]) -> float:
@@ -115,13 +165,15 @@ def main() -> None:
     t = S.time_grid(T_FINAL, DT)
     qr, qdr, qddr = (np.ascontiguousarray(a) for a in ref.evaluate(t))
     inputs = (NR.MASSES, NR.LENGTHS, NR.GRAVITY, qr, qdr, qddr)
-    # warm-up: compile (or load) all three
+    # warm-up: compile (or load) all three, and check that they run the same loop
     warm = initial_states(16)
     ours("block", 16, warm)
     ours("scalar", 16, warm)
     reference(warm, inputs)
+    agreement = check_reference(warm, inputs)
     saved = numba.config.NUMBA_NUM_THREADS
     print(f"paper arm, FTSMC sign, record='metrics', {STEPS} steps a run; median of {repeats}")
+    print(agreement)
     print(f"load average at start: {os.getloadavg()}")
     header = (
         f"{'threads':>7} {'B':>6} {'block':>10} {'scalar':>10} {'prange ref':>10} "

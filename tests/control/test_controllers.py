@@ -17,7 +17,9 @@ cancellation cannot make the comparison fail or pass by luck).
 
 from __future__ import annotations
 
+import copy
 import math
+import pickle
 import re
 import zlib
 from collections.abc import Callable
@@ -629,6 +631,78 @@ def test_evaluate_fast_path_refuses_what_the_general_path_refuses() -> None:
     np.testing.assert_array_equal(
         make("ftsmc").evaluate(*ints)[0], make("ftsmc").evaluate(*[a.astype(float) for a in ints])[0]
     )
+
+
+def _strided(a: np.ndarray) -> np.ndarray:
+    b = np.repeat(a, 2)[::2]
+    assert not b.flags.c_contiguous
+    return b
+
+
+def _reversed(a: np.ndarray) -> np.ndarray:
+    b = a[::-1].copy()[::-1]  # the same values, read through a negative stride
+    assert b.strides[0] < 0
+    return b
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    b = a.copy()
+    b.setflags(write=False)
+    return b
+
+
+def _unaligned(a: np.ndarray) -> np.ndarray:
+    buf = np.zeros(a.size * 8 + 1, dtype=np.uint8)
+    b = np.frombuffer(buf.data, dtype=np.float64, count=a.size, offset=1)
+    b[:] = a
+    assert not b.flags.aligned
+    return b
+
+
+def test_evaluate_takes_every_float64_vector_and_refuses_the_rest_by_name() -> None:
+    """Every one-dimensional float64 input (strided, reversed, read-only, unaligned) takes the
+    compiled checks, which copy it before the law reads it: the torques and ``s`` are those of
+    contiguous inputs bit for bit, a NaN or a wrong length is refused by name, and a refused
+    call leaves the super-twisting integral alone. An array of another number of dimensions
+    (0-d included) gets the general path's shape message. A copied or unpickled controller
+    (which looks its compiled function up again) evaluates as the original does."""
+    kw: dict[str, Any] = {"reaching": "super-twisting", "k": 4.0, "k2": 30.0}
+    c, ref = make("ftsmc", "tanh", **kw), make("ftsmc", "tanh", **kw)
+    good = [
+        np.array([0.7, 1.5, 0.5]),
+        np.array([0.1, -0.2, 0.3]),
+        np.array([0.2, 1.0, 0.4]),
+        np.zeros(N),
+        np.array([0.0, -0.5, 0.5]),
+    ]
+    names = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
+    for kind in (_strided, _reversed, _readonly, _unaligned):
+        for i, name in enumerate(names):
+            args = list(good)
+            args[i] = kind(good[i])
+            got, want = c.evaluate(*args, dt=5e-4), ref.evaluate(*good, dt=5e-4)
+            np.testing.assert_array_equal(got[0], want[0])
+            np.testing.assert_array_equal(got[1], want[1])
+            args[i] = kind(np.array([0.0, math.nan, 0.0]))
+            with pytest.raises(ValueError, match=rf"^{name} must be finite \(no NaN or inf\)$"):
+                c.evaluate(*args, dt=5e-4)
+            args[i] = kind(np.zeros(N + 1))
+            with pytest.raises(ValueError, match=rf"^{name} must have shape \(3,\), got \(4,\)$"):
+                c.evaluate(*args, dt=5e-4)
+    for i, name in enumerate(names):
+        for wrong in (np.array(0.5), np.zeros((1, N)), np.zeros((N, 1)), np.zeros((1, 1, N))):
+            args = list(good)
+            args[i] = wrong
+            # (the general path reports a 0-d array as the (1,) numpy makes of it)
+            shape = re.escape(str(wrong.shape if wrong.ndim else (1,)))
+            with pytest.raises(ValueError, match=rf"^{name} must have shape \(3,\), got {shape}$"):
+                c.evaluate(*args, dt=5e-4)
+    # the refusals left the integral alone, and copies carry it with the rest
+    for twin in (copy.deepcopy(c), pickle.loads(pickle.dumps(c)), copy.copy(c)):
+        twin_ref = copy.deepcopy(ref)
+        got, want = twin.evaluate(*good, dt=5e-4), twin_ref.evaluate(*good, dt=5e-4)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
 
 
 # ---------------------------------------------------------------------------- singularity

@@ -18,6 +18,7 @@ sat(s/ε)}, or the super-twisting one :math:`r = k_1\\mathrm{sig}(s)^{1/2} + w`,
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar, Literal, NoReturn, cast
 
 import numpy as np
@@ -78,40 +79,55 @@ DEFAULT_WIDTH = 0.05
 
 #: The inputs of :meth:`SlidingModeController.evaluate`, in order (their names in messages).
 _INPUT_NAMES: tuple[str, ...] = ("q", "qd", "q_ref", "qd_ref", "qdd_ref")
+#: Their number (a constant of the compiled checks).
+_N_INPUTS = len(_INPUT_NAMES)
 #: :func:`_evaluate_checked`'s code for a call whose inputs and outputs are all finite.
 _OK = -1
 #: :func:`_evaluate_checked`'s code for an input of another shape than (n,).
 _BAD_SHAPE = -2
-#: :meth:`SlidingModeController._checked_retry`'s code for inputs the fast path does not take.
-_SLOW = -3
 #: The dtype of the fast path's inputs (numpy's one float64 instance, compared by identity).
 _F64 = np.dtype(np.float64)
-#: Whether :func:`_evaluate_checked` has a signature, and so compiles no other at call time.
-_CHECKED_READY: list[bool] = []
 
 
-def _add_checked_signature(c: SlidingModeController) -> bool:
-    """Compile :func:`_evaluate_checked` for controller ``c``'s own arrays and float64
-    C-contiguous writable inputs, if not yet done; then no other signature is compiled at call
-    time, so that an input of another type raises ``TypeError`` (the general path) rather
-    than compiling a specialisation for it. Returns whether a signature was added."""
+def _scratch_rows(n: int) -> int:
+    """Rows of a controller's scratch (n columns): the compiled law's,
+    ``CK.CONTROL_WORK_ROWS + 2 n``, then those of a validated call (:func:`_evaluate_checked`):
+    one for a copy of each input and one for the super-twisting integral before the call."""
+    return CK.CONTROL_WORK_ROWS + 2 * n + _N_INPUTS + 1
+
+
+def _checked_entry(c: SlidingModeController) -> Callable[..., int]:
+    """The compiled :func:`_evaluate_checked` for controller ``c``'s own arrays and any
+    one-dimensional float64 inputs (compiled, or loaded from numba's cache, the first time a
+    controller with arrays of these types asks), as a function to call without the
+    dispatcher.
+
+    The inputs are typed read-only, possibly unaligned, of any layout (``'A'``), which every
+    one-dimensional native float64 array is (contiguous or strided, writable or not); the
+    compiled call copies them into contiguous rows of the scratch before the law reads them.
+    The function skips the dispatcher's resolution of the fourteen arguments' types (0.3-0.4
+    us a call): it converts its arguments to the signature's types with no check beyond the
+    element size, so its caller must pass exactly those types (``evaluate`` checks the
+    inputs' class, dtype and number of dimensions; the other arguments are the controller's
+    own arrays, whose types this signature is made of, and fresh float64 outputs).
+    No other signature is compiled at call time: a call through the dispatcher with other
+    types raises ``TypeError`` rather than compiling a specialisation for them.
+    """
     from numba import typeof, types
 
     vec = types.float64[::1]
+    vin = types.Array(types.float64, 1, "A", readonly=True, aligned=False)
     sig = (
-        typeof(c._p), types.int64, typeof(c._mparams), types.float64, vec, vec, vec, vec, vec,
-        typeof(c._state), types.float64, vec, vec, typeof(c._scratch), typeof(c._saved),
+        typeof(c._p), types.int64, typeof(c._mparams), types.float64, vin, vin, vin, vin, vin,
+        typeof(c._state), types.float64, vec, vec, typeof(c._scratch),
     )  # fmt: skip
-    if any(tuple(known) == sig for known in _evaluate_checked.signatures):
-        return False
-    _evaluate_checked.disable_compile(False)
-    try:
-        _evaluate_checked.compile(sig)
-    finally:
-        _evaluate_checked.disable_compile(True)
-    if not _CHECKED_READY:
-        _CHECKED_READY.append(True)
-    return True
+    if not any(tuple(known) == sig for known in _evaluate_checked.signatures):
+        _evaluate_checked.disable_compile(False)
+        try:
+            _evaluate_checked.compile(sig)
+        finally:
+            _evaluate_checked.disable_compile(True)
+    return cast("Callable[..., int]", _evaluate_checked.get_overload(sig))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -123,7 +139,10 @@ def _first_nonfinite(a: np.ndarray) -> int:
     return -1
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+# no nogil: a call from Python that computes for well under a microsecond gains nothing from
+# releasing the GIL, whose release and re-acquisition cost 0.05-0.1 us a call and, in a program
+# with other Python threads, let one of them take the GIL for up to its switch interval (5 ms)
+@njit(cache=True, error_model="numpy")
 def _evaluate_checked(
     p: np.ndarray,
     mkind: int,
@@ -139,17 +158,22 @@ def _evaluate_checked(
     tau_out: np.ndarray,
     s_out: np.ndarray,
     scratch: np.ndarray,
-    saved: np.ndarray,
 ) -> int:
     """:func:`slidingarm.control._dispatch.control_once` with the checks of a validated call.
+
+    The five inputs (n,), of any layout, are first copied into five rows of ``scratch`` after
+    the law's (:func:`_scratch_rows`), contiguous, which the law then reads: the same values,
+    so the same torque, bit for bit, as the law on the inputs themselves.
 
     Returns :data:`_OK` (-1) when every input and output is finite; ``i`` in 0..4 when input
     ``i`` (in :data:`_INPUT_NAMES` order) holds a NaN or an infinity, before anything is
     computed; ``5 + j`` when the torque or ``s`` of joint ``j`` is not finite, with the
-    super-twisting integral ``st_state`` restored to its value before the call (kept in
-    ``saved``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs' length ``n``.
+    super-twisting integral ``st_state`` restored to its value before the call (kept in the
+    last row of ``scratch``); :data:`_BAD_SHAPE` (-2) when an input is not of the outputs'
+    length ``n`` (or ``scratch`` has not the rows of :func:`_scratch_rows`).
     """
     n = tau_out.shape[0]
+    base = CK.CONTROL_WORK_ROWS + 2 * n
     if (
         q.shape[0] != n
         or qd.shape[0] != n
@@ -157,22 +181,25 @@ def _evaluate_checked(
         or qd_ref.shape[0] != n
         or qdd_ref.shape[0] != n
         or s_out.shape[0] != n
+        or scratch.shape[0] != base + _N_INPUTS + 1
+        or scratch.shape[1] != n
     ):
         return _BAD_SHAPE
-    if _first_nonfinite(q) >= 0:
-        return 0
-    if _first_nonfinite(qd) >= 0:
-        return 1
-    if _first_nonfinite(q_ref) >= 0:
-        return 2
-    if _first_nonfinite(qd_ref) >= 0:
-        return 3
-    if _first_nonfinite(qdd_ref) >= 0:
-        return 4
+    x = scratch[base:]
+    for j in range(n):
+        x[0, j] = q[j]
+        x[1, j] = qd[j]
+        x[2, j] = q_ref[j]
+        x[3, j] = qd_ref[j]
+        x[4, j] = qdd_ref[j]
+    for i in range(_N_INPUTS):
+        if _first_nonfinite(x[i]) >= 0:
+            return i
+    saved = scratch[base + _N_INPUTS]
     for j in range(n):
         saved[j] = st_state[j]
     LD.control_once(
-        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out,
+        p, mkind, mparams, g, x[0], x[1], x[2], x[3], x[4], st_state, dt, tau_out, s_out,
         scratch,
     )  # fmt: skip
     for j in range(n):
@@ -320,10 +347,11 @@ class SlidingModeController(Controller):
         self._width = None if switching == "sign" else ww
         self._k2 = None if reaching == "classic" else kk2
         # Python call path: preallocated scratch and the super-twisting integral
-        self._scratch = np.empty((CK.CONTROL_WORK_ROWS + 2 * n, n))
+        self._scratch = np.empty((_scratch_rows(n), n))
         self._state = np.zeros(n)
         self._s = np.empty(n)
-        self._saved = np.empty(n)  # the integral before a validated call, restored on refusal
+        # evaluate's compiled checks, looked up on the first validated call (_checked_entry)
+        self._checked: Callable[..., int] | None = None
         self._n = n
         mh = model.handle
         self._mkind = mh.kind
@@ -589,25 +617,18 @@ class SlidingModeController(Controller):
             and self._law != "paper"
             and type(q) is type(qd) is type(q_ref) is type(qd_ref) is type(qdd_ref) is np.ndarray
             and q.dtype is qd.dtype is q_ref.dtype is qd_ref.dtype is qdd_ref.dtype is _F64
-            and q.flags.carray
-            and qd.flags.carray
-            and q_ref.flags.carray
-            and qd_ref.flags.carray
-            and qdd_ref.flags.carray
+            and q.ndim == qd.ndim == q_ref.ndim == qd_ref.ndim == qdd_ref.ndim == 1
         ):
-            # the fast path, for inputs already of the kernel's type (float64 arrays,
-            # C-contiguous, aligned and writable; O(1) checks here): the dimensions are the
-            # dispatcher's to check (it compiles no other signature, so another raises
-            # TypeError), the shape and finiteness of the inputs and outputs the compiled call's
-            try:
-                if not _CHECKED_READY:
-                    raise TypeError
-                code = _evaluate_checked(
-                    self._p, self._mkind, self._mparams, self._g, q, qd, q_ref, qd_ref,
-                    qdd_ref, self._state, step, tau, s, self._scratch, self._saved,
-                )  # fmt: skip
-            except TypeError:
-                code = self._checked_retry(q, qd, q_ref, qd_ref, qdd_ref, step, tau, s)
+            # the fast path, for one-dimensional float64 arrays of any layout (native byte
+            # order; O(1) checks here, exactly the types _checked_entry's function takes):
+            # the shape and finiteness of the inputs and outputs are the compiled call's
+            checked = self._checked
+            if checked is None:
+                checked = self._checked = _checked_entry(self)
+            code = checked(
+                self._p, self._mkind, self._mparams, self._g, q, qd, q_ref, qd_ref, qdd_ref,
+                self._state, step, tau, s, self._scratch,
+            )  # fmt: skip
             if code == _OK:
                 return tau, s
             if 0 <= code < len(_INPUT_NAMES):
@@ -639,23 +660,12 @@ class SlidingModeController(Controller):
             self._overflow(int(bad[0]), arrays[1])
         return tau, s
 
-    def _checked_retry(self, *args: Any) -> int:
-        """:func:`_evaluate_checked` refused the call's types (``args``: the five inputs,
-        ``dt``, ``tau``, ``s``): if this controller's own arrays were the reason (a signature
-        not yet compiled, :func:`_add_checked_signature`), compile it and call again;
-        :data:`_SLOW` if the inputs are not of the kernel's type (the general path)."""
-        if not _add_checked_signature(self):
-            return _SLOW
-        q, qd, q_ref, qd_ref, qdd_ref, step, tau, s = args
-        try:
-            return int(
-                _evaluate_checked(
-                    self._p, self._mkind, self._mparams, self._g, q, qd, q_ref, qd_ref,
-                    qdd_ref, self._state, step, tau, s, self._scratch, self._saved,
-                )
-            )  # fmt: skip
-        except TypeError:
-            return _SLOW
+    def __getstate__(self) -> dict[str, Any]:
+        """The controller's attributes for pickling and copying, without the compiled function
+        of :meth:`evaluate` (which does not pickle; it is looked up again on first use)."""
+        state = self.__dict__.copy()
+        state["_checked"] = None
+        return state
 
     @staticmethod
     def _overflow(joint: int, qd: ArrayLike) -> NoReturn:
