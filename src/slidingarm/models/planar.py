@@ -322,13 +322,18 @@ class PlanarArm(ArmModel):
         fast = [_scale_factors(f, self.n) for f in (mass, length)]
         if fast[0] is not None and fast[1] is not None:
             fm, fl = np.array(fast[0]), np.array(fast[1])
-            return PlanarArm(
-                self._masses * fm,
-                self._lengths * fl,
-                com=self._com * fl,
-                inertia=self._inertia * fm * fl**2,
-                gravity=self._gravity,
-            )
+        else:
+            fm, fl = self._checked_factors(mass, length)
+        return PlanarArm(
+            self._masses * fm,
+            self._lengths * fl,
+            com=self._com * fl,
+            inertia=self._inertia * fm * fl**2,
+            gravity=self._gravity,
+        )
+
+    def _checked_factors(self, mass: ArrayLike, length: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """:meth:`scaled`'s factors through numpy, each check's error worded."""
         factors = {
             "mass scale": _vector("mass scale", mass, None),
             "length scale": _vector("length scale", length, None),
@@ -345,13 +350,7 @@ class PlanarArm(ArmModel):
                 f"more than {MAX_SCALE:g}x is not a model error), got mass {fm.tolist()}, length "
                 f"{fl.tolist()}"
             )
-        return PlanarArm(
-            self._masses * fm,
-            self._lengths * fl,
-            com=self._com * fl,
-            inertia=self._inertia * fm * fl**2,
-            gravity=self._gravity,
-        )
+        return fm, fl
 
     # ------------------------------------------------------------------ parameters
     @property
