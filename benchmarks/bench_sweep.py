@@ -27,9 +27,10 @@ the sweep's own work (every piece but the batch) in ms per draw. On a shared mac
 load drifts, ``--turns K`` repeats the pair K times (new draws each turn, the order of the two
 alternating) and prints the median overhead; ``--clock cpu`` times everything with this
 process's CPU time over all its threads (and prints the wall-clock overhead of the same turns
-beside it), which measures the sweep's own work beside the
-engine's even when a neighbour's load swings the wall time by 2x. A warm-up sweep of one chunk
-loads the compiled kernels first.
+beside it), which measures the sweep's own work beside the engine's even when a neighbour's
+load swings the wall time by 2x. A warm-up sweep of one full chunk loads the compiled kernels
+first (the block path's among them: a smaller warm-up left its loading, or its compilation on
+a cold cache, inside the first turn's sweep).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ import numpy as np
 import slidingarm
 from slidingarm.study import load_shipped
 from slidingarm.sweep.run import (
+    DEFAULT_CHUNK,
     SUMMARY,
     _prepare,
     _shard_path,
@@ -213,7 +215,7 @@ def main() -> None:
         "--first-turn", type=int, default=0, help="number of the first turn (odd: batch first)"
     )
     ap.add_argument("--chunk", type=int, default=None, help="draws per chunk (default 64)")
-    ap.add_argument("--threads", type=int, default=2, help="sweep threads: 1 in turn, 2 stages the next chunk meanwhile (default 2)")
+    ap.add_argument("--threads", type=int, default=2, help="sweep threads: 1 in turn, T runs T chunks side by side, each batch on one thread (default 2)")
     ap.add_argument(
         "--split", action=argparse.BooleanOptionalAction, default=True,
         help="time the sweep's pieces one by one too (default: yes)",
@@ -229,7 +231,11 @@ def main() -> None:
     scenario = slidingarm.config.scenario_from_dict(d)
     tmp = Path(tempfile.mkdtemp(prefix="bench-sweep-"))
     try:
-        slidingarm.sweep(scenario, runs=4, out=tmp / "warm", vary=VARY, figures=False)
+        # one full chunk, so that its batch takes the block path and loads that kernel too
+        slidingarm.sweep(
+            scenario, runs=args.chunk or DEFAULT_CHUNK, out=tmp / "warm", vary=VARY, chunk=args.chunk,
+            threads=args.threads, figures=False,
+        )  # fmt: skip
         turns = []
         for turn in range(args.first_turn, args.first_turn + args.turns):
             t = one_turn(scenario, args, tmp, turn)

@@ -620,8 +620,9 @@ def _run_stepped(
             return
 
 
-def _threads(nb: int, stepped: bool) -> int:
-    return 1 if stepped else max(1, min(int(config.NUMBA_NUM_THREADS), math.ceil(nb / CHUNK_RUNS)))
+def _threads(nb: int, stepped: bool, threads: int | None = None) -> int:
+    most = int(config.NUMBA_NUM_THREADS) if threads is None else threads
+    return 1 if stepped else max(1, min(most, math.ceil(nb / CHUNK_RUNS)))
 
 
 def available_memory() -> int | None:
@@ -750,6 +751,7 @@ def simulate_batch(
     record: Record = "full",
     throw: bool = True,
     block: bool | None = None,
+    threads: int | None = None,
 ) -> BatchResult:
     """Simulate ``B`` closed-loop runs on one time grid.
 
@@ -774,6 +776,11 @@ def simulate_batch(
         per-run loop (the block kernel's first compilation, about 15 s once per cache, is not
         worth it for a few dozen runs). ``True``: the block path, and a ``ValueError`` saying
         why if the batch cannot take it.
+    threads : int or None
+        At most this many threads run the batch's compiled loops (each releases the GIL).
+        ``None`` (default): numba's ``NUMBA_NUM_THREADS`` (the machine's cores unless set). A
+        caller that runs several batches side by side in its own threads passes ``threads=1``
+        to each, so that the loops never outnumber the cores. Results do not depend on it.
     throw : bool
         ``True``: raise :class:`SimulationError` for the first diverging run. ``False``:
         record each run's status (``BatchResult.ok``, ``.status``, ``.message``) and let the
@@ -843,7 +850,11 @@ def simulate_batch(
     steps, _h = _grid_steps(t_final, dt)
     nt = steps + 1
     stepped = any(isinstance(p, SteppedPlant) for p in plants)
-    nthreads = _threads(nb, stepped)
+    if threads is not None and (
+        isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1
+    ):
+        raise ParameterTypeError(f"threads must be None or an integer >= 1, got {threads!r}")
+    nthreads = _threads(nb, stepped, None if threads is None else int(threads))
     if block is not None and not isinstance(block, bool):
         raise ParameterTypeError(f"block must be True, False or None, got {block!r}")
     blockable = block is not False and _block_eligible_runs(plants, ctrls, nb, need=block)
@@ -904,7 +915,7 @@ def simulate_batch(
         BK.compiled()
         stage = _block_stage(plan)
         # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
-        nthr = max(1, int(config.NUMBA_NUM_THREADS))
+        nthr = max(1, int(config.NUMBA_NUM_THREADS) if threads is None else int(threads))
         per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))
         bchunks = [stage.blocks[i : i + per] for i in range(0, len(stage.blocks), per)]
 
@@ -913,7 +924,7 @@ def simulate_batch(
         ) -> tuple[NDArray[np.int64], dict[str, FloatArray]] | None:
             return _run_blocks(plan, stage, blocks, keep, stride, status, metrics is not None)
 
-        bthreads = max(1, min(int(config.NUMBA_NUM_THREADS), len(bchunks)))
+        bthreads = max(1, min(nthr, len(bchunks)))
         if bthreads <= 1:
             bparts = [bwork(c) for c in bchunks]
         else:

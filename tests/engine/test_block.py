@@ -152,3 +152,18 @@ def test_a_batch_does_not_depend_on_threads_blocks_or_lanes() -> None:
     for name in METRIC_COLUMNS:
         np.testing.assert_array_equal(rev.metric_values[name][::-1], first[name], err_msg=name)
         np.testing.assert_array_equal(part.metric_values[name], first[name][5:14], err_msg=name)
+
+
+@pytest.mark.parametrize("path", ["block", "scalar"])
+def test_the_threads_policy_bounds_the_threads_and_leaves_the_results_alone(path: str) -> None:
+    nb = 17
+    ctrls = [ftsmc("sign", k=float(k)) for k in np.linspace(15.0, 25.0, nb)]
+    kw = dict(q0=q0s(nb), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(nb)))
+    one = run(path, ARM, ctrls, REF, threads=1, record="metrics", **kw)
+    two = run(path, ARM, ctrls, REF, threads=2, record="metrics", **kw)
+    assert one.metric_values is not None and two.metric_values is not None
+    for name in METRIC_COLUMNS:
+        np.testing.assert_array_equal(one.metric_values[name], two.metric_values[name])
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match=r"threads must be None or an integer >= 1"):
+            run(path, ARM, ctrls, REF, threads=bad, **kw)

@@ -27,7 +27,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Iterable, Mapping
-from concurrent.futures import Executor, Future, ThreadPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -262,9 +262,12 @@ def stage_chunk(definition: SweepDefinition, draws: Iterable[Draw]) -> StagedChu
     )
 
 
-def simulate_chunk(definition: SweepDefinition, staged: StagedChunk) -> BatchResult | None:
+def simulate_chunk(
+    definition: SweepDefinition, staged: StagedChunk, *, threads: int | None = None
+) -> BatchResult | None:
     """One :func:`~slidingarm.simulate_batch` of the staged runs, metrics only, each run's
-    failure recorded (``throw=False``); ``None`` if every draw was refused."""
+    failure recorded (``throw=False``), on at most ``threads`` threads (``None``: the batch
+    engine's default); ``None`` if every draw was refused."""
     from slidingarm.simulate import simulate_batch
 
     if not staged.plants:
@@ -286,6 +289,7 @@ def simulate_chunk(definition: SweepDefinition, staged: StagedChunk) -> BatchRes
         seeds=list(staged.seeds),
         record="metrics",
         throw=False,
+        threads=threads,
     )
 
 
@@ -334,16 +338,18 @@ def chunk_table(
     return table
 
 
-def run_chunk(definition: SweepDefinition, c: int) -> pd.DataFrame:
+def run_chunk(
+    definition: SweepDefinition, c: int, *, threads: int | None = None
+) -> pd.DataFrame:
     """Simulate chunk ``c`` of ``definition``: its table (see :func:`sweep`).
 
     :func:`draw_chunk`, :func:`stage_chunk`, :func:`simulate_chunk` and :func:`chunk_table`
     in turn. A pure function of ``(definition, c)``, picklable, so that it runs as a Dask task
     on a worker that shares no file system with the client (beyond the scenario's own table or
-    URDF files, if it has any).
+    URDF files, if it has any). ``threads`` goes to :func:`simulate_chunk`.
     """
     staged = stage_chunk(definition, draw_chunk(definition, c))
-    return chunk_table(definition, staged, simulate_chunk(definition, staged))
+    return chunk_table(definition, staged, simulate_chunk(definition, staged, threads=threads))
 
 
 # --------------------------------------------------------------------------------------------
@@ -545,32 +551,28 @@ def _results(
         for c in todo:
             yield c, run_chunk(definition, c)
         return
-    # the next chunks are drawn and staged (Python) in a second thread while this one runs a
-    # chunk on the batch engine's numba threads: one batch at a time, so that the engine's
-    # threads never compete with another batch's for the cores
-    from collections import deque
-
-    with ThreadPoolExecutor(1) as ex:
+    # T chunks side by side, each whole (drawn, staged, simulated, tabulated) in a worker
+    # thread whose batch runs on one compiled thread: at most T loops compete for the cores,
+    # and one chunk's Python (drawing, staging, its batch's set-up and tables) runs while the
+    # others' loops, which release the GIL, keep the cores busy
+    with ThreadPoolExecutor(threads) as ex:
         queue = iter(todo)
-        pending: deque[tuple[int, Future[StagedChunk]]] = deque()
+        pending: dict[Future[pd.DataFrame], int] = {}
 
         def fill() -> None:
-            while len(pending) < threads - 1:
+            while len(pending) < threads:
                 c = next(queue, None)
                 if c is None:
                     return
-                pending.append((c, ex.submit(_drawn_and_staged, definition, c)))
+                pending[ex.submit(run_chunk, definition, c, threads=1)] = c
 
         fill()
         while pending:
-            c, fut = pending.popleft()
-            staged = fut.result()
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in sorted(finished, key=pending.__getitem__):
+                c = pending.pop(fut)
+                yield c, fut.result()
             fill()
-            yield c, chunk_table(definition, staged, simulate_chunk(definition, staged))
-
-
-def _drawn_and_staged(definition: SweepDefinition, c: int) -> StagedChunk:
-    return stage_chunk(definition, draw_chunk(definition, c))
 
 
 # --------------------------------------------------------------------------------------------
@@ -706,17 +708,19 @@ def sweep(
     chunk : int, optional
         Draws per chunk and shard (default :data:`DEFAULT_CHUNK`).
     executor : None, "local[:W]", str, distributed.Client or concurrent.futures.Executor
-        Where chunks run: ``None`` in this process (one batch at a time on the batch engine's
-        numba threads, the next chunks staged meanwhile: ``threads``); ``"local:W"`` a Dask
+        Where chunks run: ``None`` in this process (``threads`` chunks side by side);
+        ``"local:W"`` a Dask
         ``LocalCluster`` of ``W`` processes; another string the address of a Dask scheduler;
         or a client or executor of yours. The results do not depend on it.
     progress : callable, optional
         ``progress(done, total)`` in draws, after each chunk.
     threads : int
         With ``executor=None``: 1 draws, stages, simulates and tabulates each chunk in turn in
-        this thread; ``T >= 2`` draws and stages the next ``T - 1`` chunks in a second thread
-        while this one runs a chunk's batch (on the batch engine's numba threads, which
-        release the GIL) and tabulates it. One batch runs at a time either way.
+        this thread (its batch on the batch engine's default threads); ``T >= 2`` does so for
+        ``T`` chunks at a time in ``T`` worker threads, each chunk's batch on one thread
+        (``simulate_batch(threads=1)``; the compiled loops release the GIL), so that one
+        chunk's Python work overlaps the others' loops and at most ``T`` loops share the
+        cores. The shards and the table do not depend on it.
     figures : bool
         Draw the figures.
     n_resamples : int
