@@ -43,9 +43,9 @@ from slidingarm.sweep.staging import (
     Stager,
     check_keys,
     columns_of,
-    draw_run,
+    draw_runs,
     key_shapes,
-    run_seed,
+    run_seeds,
 )
 
 if TYPE_CHECKING:
@@ -215,16 +215,16 @@ def _stager_of(definition: SweepDefinition) -> Stager:
 
 
 def draw_chunk(definition: SweepDefinition, c: int) -> list[Draw]:
-    """The draws of chunk ``c`` (:func:`~slidingarm.sweep.staging.draw_run`,
-    :func:`~slidingarm.sweep.staging.run_seed`)."""
+    """The draws of chunk ``c`` (:func:`~slidingarm.sweep.staging.draw_runs`,
+    :func:`~slidingarm.sweep.staging.run_seeds`)."""
     stager = _stager_of(definition)
     dists = definition.distributions
     shapes = key_shapes(stager.scenario, dists)
     bases = stager.bases(dists)
-    return [
-        Draw(i, draw_run(definition.seed, i, dists, shapes, bases), run_seed(definition.seed, i))
-        for i in definition.chunk_runs(c)
-    ]
+    runs = list(definition.chunk_runs(c))
+    values = draw_runs(definition.seed, runs, dists, shapes, bases)
+    seeds = run_seeds(definition.seed, runs)
+    return [Draw(i, v, s) for i, v, s in zip(runs, values, seeds, strict=True)]
 
 
 def stage_chunk(definition: SweepDefinition, draws: Iterable[Draw]) -> StagedChunk:
