@@ -152,7 +152,7 @@ def draw_runs(
     generator is set to each state in turn."""
     keys = list(distributions)
     index = np.array([[i, 1, _key_id(k)] for i in runs for k in keys], dtype=np.int64)
-    states = pcg64_states(spawned_words(seed, index.reshape(-1, 3), 8))
+    states: list[Any] = pcg64_states(spawned_words(seed, index.reshape(-1, 3), 8))
     bitgen = np.random.PCG64(0)
     rng = np.random.Generator(bitgen)
     out: list[dict[str, float | list[float]]] = []
