@@ -551,28 +551,48 @@ def _results(
         for c in todo:
             yield c, run_chunk(definition, c)
         return
-    # T chunks side by side, each whole (drawn, staged, simulated, tabulated) in a worker
-    # thread whose batch runs on one compiled thread: at most T loops compete for the cores,
-    # and one chunk's Python (drawing, staging, its batch's set-up and tables) runs while the
-    # others' loops, which release the GIL, keep the cores busy
-    with ThreadPoolExecutor(threads) as ex:
+    # T chunks simulated side by side in T worker threads, each batch on one compiled thread
+    # (at most T loops share the cores; the loops release the GIL), and one stager thread that
+    # draws and stages chunks ahead of them in order. A worker finds its chunk staged, so the
+    # Python of staging overlaps the loops instead of the workers staging at the same moments
+    # (workers that start together finish together) and leaving a core idle
+    from collections import deque
+
+    with ThreadPoolExecutor(1) as stager, ThreadPoolExecutor(threads) as workers:
         queue = iter(todo)
-        pending: dict[Future[pd.DataFrame], int] = {}
+        ahead: deque[tuple[int, Future[StagedChunk]]] = deque()
+        running: dict[Future[pd.DataFrame], int] = {}
 
-        def fill() -> None:
-            while len(pending) < threads:
-                c = next(queue, None)
-                if c is None:
-                    return
-                pending[ex.submit(run_chunk, definition, c, threads=1)] = c
+        def stage_next() -> bool:
+            c = next(queue, None)
+            if c is None:
+                return False
+            ahead.append((c, stager.submit(_drawn_and_staged, definition, c)))
+            return True
 
-        fill()
-        while pending:
-            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in sorted(finished, key=pending.__getitem__):
-                c = pending.pop(fut)
+        def top_up() -> None:
+            while len(running) < threads and (ahead or stage_next()):
+                c, staged = ahead.popleft()
+                running[workers.submit(_simulated, definition, staged)] = c
+            while len(ahead) < threads and stage_next():
+                pass
+
+        top_up()
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for fut in sorted(finished, key=running.__getitem__):
+                c = running.pop(fut)
                 yield c, fut.result()
-            fill()
+            top_up()
+
+
+def _drawn_and_staged(definition: SweepDefinition, c: int) -> StagedChunk:
+    return stage_chunk(definition, draw_chunk(definition, c))
+
+
+def _simulated(definition: SweepDefinition, staged: Future[StagedChunk]) -> pd.DataFrame:
+    chunk = staged.result()
+    return chunk_table(definition, chunk, simulate_chunk(definition, chunk, threads=1))
 
 
 # --------------------------------------------------------------------------------------------
@@ -716,11 +736,12 @@ def sweep(
         ``progress(done, total)`` in draws, after each chunk.
     threads : int
         With ``executor=None``: 1 draws, stages, simulates and tabulates each chunk in turn in
-        this thread (its batch on the batch engine's default threads); ``T >= 2`` does so for
-        ``T`` chunks at a time in ``T`` worker threads, each chunk's batch on one thread
-        (``simulate_batch(threads=1)``; the compiled loops release the GIL), so that one
-        chunk's Python work overlaps the others' loops and at most ``T`` loops share the
-        cores. The shards and the table do not depend on it.
+        this thread (its batch on the batch engine's default threads); ``T >= 2`` simulates
+        and tabulates ``T`` chunks at a time in ``T`` worker threads, each chunk's batch on one
+        thread (``simulate_batch(threads=1)``; the compiled loops release the GIL), while a
+        stager thread draws and stages up to ``T`` chunks ahead, so that the Python work
+        overlaps the loops and at most ``T`` loops share the cores. The shards and the table
+        do not depend on it.
     figures : bool
         Draw the figures.
     n_resamples : int
