@@ -12,7 +12,8 @@ In one run, for 1 and 2 threads and each batch size ``B``, the paper's arm (3 jo
   per run: the same loop, each run's MSE per joint accumulated as its metric, no trace kept),
   the reference of issue 12,
 
-and the ratios block / scalar and block / reference. Before timing, the reference is checked to
+and the ratios block / scalar and block / reference; then a UR5 figure (arm-steps per second
+of ``simulate_batch`` on 64 UR5 runs, metrics mode, and which loop it took). Before timing, the reference is checked to
 run the same loop as ours: its trajectory of the paper's run within 1e-9 rad of both our
 paths', and its MSE of 16 perturbed runs within 1e-6 (relative) of our ``mse`` metric. Each
 figure is the median of ``--repeats`` timings that take turns (block, scalar, reference), so
@@ -152,6 +153,40 @@ def reference(q0: np.ndarray, inputs: tuple[np.ndarray, ...]) -> float:
     return time.perf_counter() - t0
 
 
+#: The UR5 row: FTSMC with tanh on the exact nominal model, a quintic to 0.5 rad in 2 s, 2 s
+#: at 1 ms (2000 steps a run), ``UR5_RUNS`` runs from perturbed initial states.
+UR5_DT = 1e-3
+UR5_T = 2.0
+UR5_STEPS = 2000
+UR5_RUNS = 64
+
+
+def ur5_rate(threads: int, repeats: int) -> tuple[float, str]:
+    """Arm-steps per second of ``simulate_batch`` on the UR5 (metrics mode) and the path it
+    took: the block path has no serial-arm kind yet, so ``simulate_batch`` runs the per-run
+    loop (``_block_eligible_runs`` says why)."""
+    arm = sa.robots.load("ur5")
+    ctrl = sa.FTSMC(arm, alpha=2.0, beta=2.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
+    q0 = np.zeros(arm.n) + np.random.default_rng(1).normal(0.0, 0.01, (UR5_RUNS, arm.n))
+    ref = sa.QuinticReference(np.zeros(arm.n), np.full(arm.n, 0.5), duration=UR5_T)
+    try:
+        S._block_eligible_runs([arm], [ctrl], UR5_RUNS, need=True)
+        path = "block"
+    except ValueError as exc:
+        path = f"per-run loop ({str(exc).split(': ', 2)[-1]})"
+
+    def once() -> float:
+        t0 = time.perf_counter()
+        out = sa.simulate_batch(arm, ctrl, ref, q0=q0, t_final=UR5_T, dt=UR5_DT,
+                                record="metrics", threads=threads)  # fmt: skip
+        dt = time.perf_counter() - t0
+        assert np.all(out.ok)
+        return dt
+
+    once()
+    return UR5_RUNS * UR5_STEPS / float(np.median([once() for _ in range(repeats)])), path
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="B = 64 and 1000, one repeat")
@@ -202,6 +237,10 @@ def main() -> None:
                 )
     finally:
         numba.config.NUMBA_NUM_THREADS = saved
+    for threads in args.threads:
+        rate, path = ur5_rate(threads, repeats)
+        print(f"UR5 (6 joints, FTSMC tanh), {threads} thread(s), B = {UR5_RUNS}: "
+              f"{rate:.3g} arm-steps/s on the {path}")  # fmt: skip
     print(f"load average at end: {os.getloadavg()}")
     for threads, b, rate in rows:
         if threads == 2 and b == 10000:
