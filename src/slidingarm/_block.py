@@ -1,8 +1,9 @@
 """The closed loop of :mod:`slidingarm._engine`, advancing a block of ``W`` runs together.
 
 :func:`run_block` is :func:`slidingarm._engine.run_one` for :data:`W` runs at once, for the
-planar kind (plant and nominal model) and the built-in sliding-mode law with ``law =
-"model"``: every surface, switching function and reaching law of
+planar kind (plant and nominal model) and the built-in sliding-mode law, ``law = "model"``
+and the paper's ``law = "paper"`` (:func:`_paper_law`): every surface, switching function and
+reaching law of
 :func:`slidingarm.control._kernels.control_into`, every velocity estimator, the held and added
 measurement arrays, torque disturbances, torque limits and ``substeps``. The law's codes, the
 velocity estimator and ``substeps`` are the same for every lane of a block (the caller groups
@@ -176,8 +177,17 @@ _VF3 = 61 * W
 _TMAX = 62 * W
 _Q0 = 63 * W
 _QD0 = 64 * W
+# the paper's law (``law = "paper"``): its reaching term, h, the solves' right-hand side and
+# solution, f = -M^{-1} h, and the columns of the centre-of-mass Jacobian of the mass matrix
+_PR = 65 * W
+_PH = 66 * W
+_PRHS = 67 * W
+_PCOL = 68 * W
+_PF = 69 * W
+_PJX = 70 * W
+_PJY = 71 * W
 #: First metric accumulator row (rows M_* follow, per joint).
-_MACC = 65
+_MACC = 72
 M_SE2 = 0
 M_SE2C = 1
 M_IAE = 2
@@ -232,9 +242,12 @@ _A_PWE = (_MACC + M_PWE) * W
 _A_PTAU = (_MACC + M_PTAU) * W
 
 
+@njit(inline="always", **_OPT)
 def workspace_size(n: int) -> int:
-    """Length of the flat workspace of a block of ``n``-joint runs."""
-    return J0 + n * JS
+    """Length of the flat workspace of a block of ``n``-joint runs: the lane scalars, the
+    joints' rows, then the paper's law's mass matrix and its Cholesky factor (``n x n`` rows of
+    ``W`` lanes each, :func:`_paper_law`)."""
+    return J0 + n * JS + 2 * n * n * W
 
 
 @njit(inline="always", **_OPT)
@@ -618,10 +631,12 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
 
 @njit(**_OPT)
 def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, classic: bool,
-         dt: float, q_ref: np.ndarray, qd_ref: np.ndarray, qdd_ref: np.ndarray) -> None:  # fmt: skip
-    """The sliding-mode law with ``law = model`` per lane
-    (:func:`slidingarm.control._kernels.control_into`): ``s`` into ``_S``, the torque into
-    ``_TAU``, the angles of the measurement into ``_LC``, ``_LS``."""
+         paper: bool, dt: float, q_ref: np.ndarray, qd_ref: np.ndarray,
+         qdd_ref: np.ndarray) -> None:  # fmt: skip
+    """The sliding-mode law per lane (:func:`slidingarm.control._kernels.control_into`):
+    ``s`` into ``_S``, the torque into ``_TAU`` (``law = model``: the nominal RNEA at
+    :math:`\\ddot q_d - \\nu - r`; ``paper``: :func:`_paper_law`), the angles of the
+    measurement into ``_LC``, ``_LS``."""
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         qr = q_ref[k, j]
@@ -683,16 +698,151 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
         if classic:
             for ln in range(W):
                 r = ws[o + _CFK + ln] * ws[o + _TMP + ln]
+                ws[o + _PR + ln] = r
                 ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
         else:
             for ln in range(W):
                 s = ws[o + _S + ln]
                 sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
                 r = ws[o + _CFK + ln] * math.sqrt(abs(s)) * sg + ws[o + _ST + ln]
+                ws[o + _PR + ln] = r
                 ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
                 ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
     _angles_law(ws, n)
+    if paper:
+        _paper_law(ws, n)
+    else:
+        _rnea(ws, n)
+
+
+@njit(**_OPT)
+def _cholesky_solve(ws: np.ndarray, n: int, lb: int, rhs: int, out: int) -> None:
+    """Per lane, solve :math:`L L^T x = b` with the Cholesky factor at ``lb`` (row ``a``,
+    column ``b`` at ``lb + (a n + b) W``), ``b`` the joint rows at offset ``rhs``, ``x`` into
+    those at ``out``: the substitutions of
+    :func:`slidingarm.models._kernels.cholesky_solve_into`, in its order."""
+    for i in range(n):
+        oi = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[_L_T0 + ln] = ws[oi + rhs + ln]
+        for k in range(i):
+            ok = (J0 + k * JS) & _NONNEG
+            at = (lb + (i * n + k) * W) & _NONNEG
+            for ln in range(W):
+                ws[_L_T0 + ln] -= ws[at + ln] * ws[ok + out + ln]
+        ii = (lb + (i * n + i) * W) & _NONNEG
+        for ln in range(W):
+            ws[oi + out + ln] = ws[_L_T0 + ln] / ws[ii + ln]
+    for i in range(n - 1, -1, -1):
+        oi = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[_L_T0 + ln] = ws[oi + out + ln]
+        for k in range(i + 1, n):
+            ok = (J0 + k * JS) & _NONNEG
+            at = (lb + (k * n + i) * W) & _NONNEG
+            for ln in range(W):
+                ws[_L_T0 + ln] -= ws[at + ln] * ws[ok + out + ln]
+        ii = (lb + (i * n + i) * W) & _NONNEG
+        for ln in range(W):
+            ws[oi + out + ln] = ws[_L_T0 + ln] / ws[ii + ln]
+
+
+@njit(**_OPT)
+def _paper_law(ws: np.ndarray, n: int) -> None:
+    r"""The paper's law per lane (:func:`slidingarm.control._kernels.paper_entry`), from the
+    angles of the measurement in ``_LC``, ``_LS``, ``nu`` in ``_NU`` and ``r`` in ``_PR``:
+    :math:`h` by the RNEA at zero acceleration, :math:`M` as
+    :func:`slidingarm.models._kernels._mass_from_angles` builds it, its Cholesky factor,
+    :math:`f = -M^{-1} h` and :math:`g_i = [M^{-1}]_{ii}` by solves, and
+    :math:`\tau_i = (-f_i - \nu_i) / g_i - r_i` into ``_TAU``; the same operations in the same
+    order as the scalar law. Where the scalar factorisation stops at a pivot that is not
+    positive (a non-finite measurement, for a planar arm with positive masses), a lane
+    computes on; the run is reported non-finite either way."""
+    mb = (J0 + n * JS) & _NONNEG
+    lb = (mb + n * n * W) & _NONNEG
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _ACC + ln] = 0.0
     _rnea(ws, n)
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _PH + ln] = ws[o + _TAU + ln]
+    for a in range(n * n):
+        at = (mb + a * W) & _NONNEG
+        for ln in range(W):
+            ws[at + ln] = 0.0
+    for i in range(n):
+        oi = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[oi + _PJX + ln] = -ws[oi + _MC + ln] * ws[oi + _LS + ln]
+            ws[oi + _PJY + ln] = ws[oi + _MC + ln] * ws[oi + _LC + ln]
+        for j in range(i - 1, -1, -1):
+            oj = (J0 + j * JS) & _NONNEG
+            on = (J0 + (j + 1) * JS) & _NONNEG
+            for ln in range(W):
+                ws[oj + _PJX + ln] = ws[on + _PJX + ln] - ws[oj + _ML + ln] * ws[oj + _LS + ln]
+                ws[oj + _PJY + ln] = ws[on + _PJY + ln] + ws[oj + _ML + ln] * ws[oj + _LC + ln]
+        for a in range(i + 1):
+            oa = (J0 + a * JS) & _NONNEG
+            for b in range(a, i + 1):
+                ob = (J0 + b * JS) & _NONNEG
+                at = (mb + (a * n + b) * W) & _NONNEG
+                for ln in range(W):
+                    ws[at + ln] += (
+                        ws[oi + _MM + ln]
+                        * (
+                            ws[oa + _PJX + ln] * ws[ob + _PJX + ln]
+                            + ws[oa + _PJY + ln] * ws[ob + _PJY + ln]
+                        )
+                        + ws[oi + _MI + ln]
+                    )
+    for a in range(n):
+        for b in range(a):
+            at = (mb + (a * n + b) * W) & _NONNEG
+            bt = (mb + (b * n + a) * W) & _NONNEG
+            for ln in range(W):
+                ws[at + ln] = ws[bt + ln]
+    # the factor, as cholesky_solve_into computes it (the scalar law refactors M for each of
+    # its n + 1 solves; the factor is the same each time)
+    for i in range(n):
+        for j in range(i + 1):
+            ij = (lb + (i * n + j) * W) & _NONNEG
+            for ln in range(W):
+                ws[_L_T0 + ln] = ws[mb + (i * n + j) * W + ln]
+            for k in range(j):
+                ik = (lb + (i * n + k) * W) & _NONNEG
+                jk = (lb + (j * n + k) * W) & _NONNEG
+                for ln in range(W):
+                    ws[_L_T0 + ln] -= ws[ik + ln] * ws[jk + ln]
+            if i == j:
+                for ln in range(W):
+                    ws[ij + ln] = math.sqrt(ws[_L_T0 + ln])
+            else:
+                jj = (lb + (j * n + j) * W) & _NONNEG
+                for ln in range(W):
+                    ws[ij + ln] = ws[_L_T0 + ln] / ws[jj + ln]
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _PRHS + ln] = -ws[o + _PH + ln]
+    _cholesky_solve(ws, n, lb, _PRHS, _PCOL)
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _PF + ln] = ws[o + _PCOL + ln]
+    for i in range(n):
+        for j in range(n):
+            o = (J0 + j * JS) & _NONNEG
+            for ln in range(W):
+                ws[o + _PRHS + ln] = 1.0 if j == i else 0.0
+        _cholesky_solve(ws, n, lb, _PRHS, _PCOL)
+        oi = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[oi + _TAU + ln] = (
+                (-ws[oi + _PF + ln] - ws[oi + _NU + ln]) / ws[oi + _PCOL + ln] - ws[oi + _PR + ln]
+            )
 
 
 @njit(**_OPT)
@@ -935,9 +1085,10 @@ def run_block(
     has_add = madd.shape[0] > 0
     has_hold = mhold.shape[0] > 0
     has_dist = dist.shape[0] > 0
-    wsa = np.zeros(J0 + n * JS)
+    wsa = np.zeros(workspace_size(n))
     ws = E._borrow(wsa)
     fast_terminal = codes[CK.CI_SURFACE] == CK.SURFACE_FAST_TERMINAL
+    paper = codes[CK.CI_LAW] == CK.LAW_PAPER
     swcode = codes[CK.CI_SWITCHING]
     classic = codes[CK.CI_REACHING] == CK.REACH_CLASSIC
     delta_s = bands[0]
@@ -979,7 +1130,7 @@ def run_block(
                     if has_dist:
                         ws[o + _DIST + ln] = dist[k, j, ln]
         exact = _measure(ws, n, k, vcode, dt, has_hold)
-        _law(ws, n, k, fast_terminal, swcode, classic, dt, q_ref, qd_ref, qdd_ref)
+        _law(ws, n, k, fast_terminal, swcode, classic, paper, dt, q_ref, qd_ref, qdd_ref)
         _clip(ws, n)
         if stride > 0 and k % stride == 0:
             kk = k // stride

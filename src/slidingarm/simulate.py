@@ -365,12 +365,12 @@ def _block_eligible_runs(
     *,
     need: bool | None = None,
 ) -> bool:
-    """Whether every run is a compiled planar plant under a built-in sliding-mode law with
-    ``law = "model"`` and a planar nominal model (what :func:`slidingarm._block.run_block`
-    computes) and the batch has :data:`BLOCK_MIN_RUNS` runs; with ``need=True`` (``simulate_batch(block=True)``) any batch size, and a ``ValueError``
-    naming the reason instead of ``False``."""
+    """Whether every run is a compiled planar plant under a built-in sliding-mode law
+    (``law = "model"`` or ``"paper"``) with a planar nominal model (what
+    :func:`slidingarm._block.run_block` computes) and the batch has :data:`BLOCK_MIN_RUNS`
+    runs; with ``need=True`` (``simulate_batch(block=True)``) any batch size, and a
+    ``ValueError`` naming the reason instead of ``False``."""
     from slidingarm.control import _dispatch as LD
-    from slidingarm.control import _kernels as CK
     from slidingarm.models import _dispatch as MD
 
     def no(reason: str) -> bool:
@@ -389,8 +389,6 @@ def _block_eligible_runs(
             return no(f"controller {c.label} is not a built-in sliding-mode law")
         if c.model.handle.kind != MD.KIND_PLANAR:
             return no(f"controller {c.label}'s nominal model is not a planar arm")
-        if law.params[CK.CI_LAW] != CK.LAW_MODEL:
-            return no(f"controller {c.label} uses law='paper' (only law='model' is blocked)")
     return True
 
 
@@ -771,7 +769,7 @@ def simulate_batch(
     block : bool or None
         Which loop runs the batch. ``None`` (default): the block path
         (:mod:`slidingarm._block`, eight runs advanced together, bit-identical per run) when
-        every run is a planar arm under a built-in law with ``law="model"`` and
+        every run is a planar arm under a built-in sliding-mode law and
         :math:`B \\ge` :data:`BLOCK_MIN_RUNS`, else the per-run loop. ``False``: always the
         per-run loop (the block kernel's first compilation, about 15 s once per cache, is not
         worth it for a few dozen runs). ``True``: the block path, and a ``ValueError`` saying

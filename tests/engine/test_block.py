@@ -49,9 +49,9 @@ def run(path: str, *args: Any, **kw: Any) -> sa.BatchResult:
 
 def test_the_block_policy_names_why_a_batch_cannot_take_the_block_path() -> None:
     kw: dict[str, Any] = dict(q0=sa.PAPER_Q0, t_final=0.01, dt=DT)
-    paper_law = sa.FTSMC(ARM, alpha=2, beta=2, p=5, q=3, k=20, law="paper")
-    with pytest.raises(ValueError, match="law='paper'"):
-        sa.simulate_batch(ARM, paper_law, REF, block=True, **kw)
+    serial = sa.SerialArm.from_urdf(ARM.to_urdf())
+    with pytest.raises(ValueError, match="the plant SerialArm is not a compiled planar arm"):
+        sa.simulate_batch(serial, ftsmc("sign"), REF, block=True, **kw)
     with pytest.raises(TypeError, match="block must be True, False or None"):
         sa.simulate_batch(ARM, ftsmc("sign"), REF, block="yes", **kw)  # type: ignore[arg-type]
     # block=False keeps a large batch on the per-run loop, None takes the block path: the
@@ -167,3 +167,33 @@ def test_the_threads_policy_bounds_the_threads_and_leaves_the_results_alone(path
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(ValueError, match=r"threads must be None or an integer >= 1"):
             run(path, ARM, ctrls, REF, threads=bad, **kw)
+
+
+def test_the_papers_law_on_the_block_path_equals_the_scalar_path() -> None:
+    """``law="paper"`` (eqs. 19-22: M^-1 by Cholesky solves per lane) beside ``law="model"``
+    in one batch, every surface and both reaching laws: the same bits on both paths."""
+    gains = {"alpha": 2, "beta": 2, "p": 5, "q": 3, "k": 20}
+    ctrls: list[sa.Controller] = [
+        sa.FTSMC(ARM, switching="tanh", width=0.05, law="paper", **gains),
+        sa.FTSMC(ARM, switching="sign", law="paper", **gains),
+        sa.TSMC(ARM, beta=2, p=5, q=3, k=20, switching="sat", width=0.05, law="paper"),
+        sa.PDSMC(ARM, lam=2, k=20, switching="tanh", width=0.05, law="paper"),
+        sa.NTSMC(ARM, beta=2, p=5, q=3, k=20, switching="tanh", width=0.05, law="paper"),
+        sa.FTSMC(ARM, switching="tanh", width=0.05, law="model", **gains),
+    ]
+    ctrls += [
+        sa.FTSMC(ARM, switching="tanh", width=0.05, law="paper", reaching="super-twisting",
+                 k2=20, **{**gains, "k": 5})
+    ]  # fmt: skip
+    nb = 3 * len(ctrls)
+    kw = dict(
+        q0=q0s(nb), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(nb)),
+        disturbances=[[sa.SinusoidalTorque(0.5, 3.0)]] * nb,
+    )  # fmt: skip
+    block = run("block", ARM, ctrls * 3, REF, **kw)
+    scalar = run("scalar", ARM, ctrls * 3, REF, **kw)
+    assert np.all(block.ok) and np.all(scalar.ok)
+    for name in SIGNALS:
+        np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name), err_msg=name)
+    # the paper's law is not the model law: the two FTSMC-tanh runs' torques differ
+    assert np.max(np.abs(block.tau[0] - block.tau[4])) > 1e-3
