@@ -56,6 +56,11 @@ def init_worker(parent: int) -> None:
             pass
     if os.getppid() != parent:  # the parent died before the worker got here
         os._exit(1)
+    if hasattr(os, "nice"):  # before the thread below, which would keep the old priority
+        try:
+            os.nice(WORKER_NICENESS)
+        except OSError:  # not allowed here: the worker keeps its priority
+            pass
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -63,17 +68,14 @@ def init_worker(parent: int) -> None:
         os._exit(1)
 
     threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
-    if hasattr(os, "nice"):
-        try:
-            os.nice(WORKER_NICENESS)
-        except OSError:  # not allowed here: the worker keeps its priority
-            pass
 
 
-def warm_up() -> None:
+def warm_up(paper_law: bool = False) -> None:
     """Make a worker process ready for its first figure while the main process compiles and
     simulates: import the plotting stack and draw and save a small figure (in memory), which
-    loads the fonts and fills matplotlib's caches."""
+    loads the fonts and fills matplotlib's caches; with ``paper_law``, then
+    :func:`compile_paper_law` (one task, so that the worker that compiles it is warmed up too:
+    a second warm-up task would go to whichever worker is free, the other one)."""
     import matplotlib
     from matplotlib.figure import Figure
 
@@ -88,6 +90,8 @@ def warm_up() -> None:
         ax.legend()
         fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
         fig.savefig(io.BytesIO(), format="svg")
+    if paper_law:
+        compile_paper_law()
 
 
 def compile_paper_law() -> None:

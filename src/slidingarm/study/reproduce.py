@@ -597,8 +597,9 @@ def _reproduce(
                     initializer=_worker.init_worker,
                     initargs=(os.getpid(),),
                 )
-                paper_law = pool.submit(_worker.compile_paper_law)
-                for _ in range(workers):
+                # the first worker also compiles the errata's law (after its warm-up)
+                paper_law = pool.submit(_worker.warm_up, True)
+                for _ in range(workers - 1):
                     pool.submit(_worker.warm_up)
         setups = {name: s.build() for name, s in scenarios.items()}
         figures = _figure_names()
@@ -607,30 +608,26 @@ def _reproduce(
         total = n_runs * 2 + len(figures) * len(setups) + 2 + len(GRID_SCENARIOS) + 3
         steps = _Steps(progress, total)
 
+        fig_dir = staging.path / "figures"
+        fig_dir.mkdir(parents=True, exist_ok=True)
+        # one task per figure, so that the workers stay busy to the end (per scenario, the
+        # last scenario's figures were drawn by one worker while the others idled); a
+        # scenario's figures are handed out as soon as it is simulated, the dearest first
+        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {name: [] for name in setups}
         results: dict[str, dict[str, SimResult]] = {}
         for name, setup in setups.items():
             steps.start(f"{name}: simulating")
             results[name] = A.simulate_setup(setup)
             steps(f"{name}: simulated", len(setup.controllers))
-
-        fig_dir = staging.path / "figures"
-        fig_dir.mkdir(parents=True, exist_ok=True)
-        # one task per figure, so that the workers stay busy to the end (per scenario, the
-        # last scenario's figures were drawn by one worker while the others idled)
-        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {name: [] for name in setups}
-        if pool is not None:
+            if pool is None:
+                continue
             with _starting_workers():
-                # the dearest figures first, so that the workers finish together
-                for name, figure in sorted(
-                    ((name, figure) for name in setups for figure in figures),
-                    key=lambda item: _FIGURE_COST.get(item[1], 1.0),
-                    reverse=True,
-                ):
+                for figure in sorted(figures, key=lambda f: _FIGURE_COST.get(f, 1.0), reverse=True):
                     futures[name].append(
                         pool.submit(
                             _worker.draw,
                             results[name],
-                            _title(setups[name]),
+                            _title(setup),
                             {figure: fig_dir / figure_stem(name, figure)},
                         )
                     )
