@@ -642,18 +642,20 @@ def _reproduce(
         convergence = A.convergence_table(results, setups, CONVERGENCE_SCENARIOS)
         chattering = A.chattering_table(metrics)
         steps("convergence and chattering")
-        steps.start("errata")
-        if paper_law is not None:
-            with suppress(Exception):  # if the worker could not compile it, this process does
-                paper_law.result()
-        errata = A.errata_table(scenarios[ERRATA_SCENARIO])
-        steps("errata")
+        # the gain grids before the errata, which wait for the worker that compiles (or,
+        # warm, loads) the paper's law: that worker is done by then
         grids = []
         for name in GRID_SCENARIOS:
             steps.start(f"{name}: gain grid")
             grids.append(A.gain_grid(scenarios[name]))
             steps(f"{name}: gain grid")
         grid = pd.concat(grids, ignore_index=True)
+        steps.start("errata")
+        if paper_law is not None:
+            with suppress(Exception):  # if the worker could not compile it, this process does
+                paper_law.result()
+        errata = A.errata_table(scenarios[ERRATA_SCENARIO])
+        steps("errata")
         checks = A.checks_table(
             metrics,
             results,
