@@ -73,9 +73,14 @@ def init_worker(parent: int) -> None:
 def warm_up(paper_law: bool = False) -> None:
     """Make a worker process ready for its first figure while the main process compiles and
     simulates: import the plotting stack and draw and save a small figure (in memory), which
-    loads the fonts and fills matplotlib's caches; with ``paper_law``, then
+    loads the fonts and fills matplotlib's caches; with ``paper_law``, first
     :func:`compile_paper_law` (one task, so that the worker that compiles it is warmed up too:
-    a second warm-up task would go to whichever worker is free, the other one)."""
+    a second warm-up task would go to whichever worker is free, the other one). The law comes
+    first because it shares small kernels with the main process's loop (the model's
+    ``sincos``): compiled and cached here early, the main process loads them instead of
+    compiling them (about 0.9 s of its compile measured, cold)."""
+    if paper_law:
+        compile_paper_law()
     import matplotlib
     from matplotlib.figure import Figure
 
@@ -90,8 +95,6 @@ def warm_up(paper_law: bool = False) -> None:
         ax.legend()
         fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
         fig.savefig(io.BytesIO(), format="svg")
-    if paper_law:
-        compile_paper_law()
 
 
 def compile_paper_law() -> None:

@@ -597,7 +597,7 @@ def _reproduce(
                     initializer=_worker.init_worker,
                     initargs=(os.getpid(),),
                 )
-                # the first worker also compiles the errata's law (after its warm-up)
+                # the first worker also compiles the errata's law (before its warm-up)
                 paper_law = pool.submit(_worker.warm_up, True)
                 for _ in range(workers - 1):
                     pool.submit(_worker.warm_up)
