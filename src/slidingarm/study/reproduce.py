@@ -540,8 +540,10 @@ def reproduce(
         The command line to record in the manifest and report.
     jobs : int, optional
         Processes drawing the figures while the main process computes (default: up to 3,
-        bounded by the CPU count); 1 draws them in this process. A worker ends when this
-        process dies, even by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
+        bounded by the CPU count); 1 draws them in this process. The workers run at a lower
+        priority (:data:`slidingarm.plotting._worker.WORKER_NICENESS`), so that their start-up
+        does not slow this process's compilation. A worker ends when this process dies, even
+        by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
     overwrite : bool
         Replace the results of other scenarios (a ``run`` of one's own) in ``out_dir``.
 
