@@ -8,8 +8,8 @@ the package's own cache folders are neither used nor touched). For each run it p
 wall time, the CPU time of the main process and of its children (the figure workers), and the
 machine's load average; then the median of the wall times of each kind.
 
-With ``--phases`` one more run (cold) goes through :func:`slidingarm.study.reproduce` in this
-benchmark's own child process and prints the wall and CPU time of each step (the progress
+With ``--phases`` two more runs (cold, then warm from the cache the cold one filled) go
+through :func:`slidingarm.study.reproduce` in this benchmark's own child process and print the wall and CPU time of each step (the progress
 callback's) and the compile time of each numba dispatcher of the main process (numba's
 ``numba:compile`` events, CPU seconds): its total, which includes the callees compiled
 during its compilation, and its own share.
@@ -103,8 +103,9 @@ def one_run(cache: str, out: Path) -> dict[str, float]:
     return {"wall": wall, "cpu": cpu, "load": load}
 
 
-def phases(cache: str, out: Path) -> None:
+def phases(cache: str, out: Path, kind: str = "cold") -> None:
     env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+    shutil.rmtree(out, ignore_errors=True)
     with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as fh:
         fh.write(_PHASES)
         script = fh.name
@@ -117,7 +118,8 @@ def phases(cache: str, out: Path) -> None:
     if proc.returncode != 0:
         raise SystemExit(f"the phase run failed:\n{proc.stderr[-3000:]}")
     body = json.loads(proc.stdout.strip().splitlines()[-1])
-    print("\nphases of a cold run (wall s since start, CPU s of the main process in the step):")
+    print(f"\nphases of a {kind} run (wall s since start, CPU s of the main process in the step;")
+    print(f"load {os.getloadavg()[0]:.2f} after it):")
     prev_wall, prev_cpu = 0.0, 0.0
     for what, wall, cpu in body["marks"]:
         if wall - prev_wall >= 0.05 or cpu - prev_cpu >= 0.05:
@@ -161,6 +163,7 @@ def main() -> None:
                 print(f"median {name}: {wall:.2f} s wall, {cpu:.2f} s CPU over {len(runs)} runs")
         if args.phases:
             phases(str(root / "phase-cache"), root / "phase-out")
+            phases(str(root / "phase-cache"), root / "phase-out", "warm")
     finally:
         shutil.rmtree(root, ignore_errors=True)
 

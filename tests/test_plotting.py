@@ -344,3 +344,35 @@ def test_power_of_ten_labels_are_plain_unicode() -> None:
     fig.canvas.draw()
     labels = [t.get_text() for t in fig.axes[0].get_yticklabels() if t.get_text()]
     assert labels and not any("$" in t for t in labels)
+
+
+def test_figure_worker_draws_the_figures_it_is_given_as_save_figure_does(tmp_path: Path) -> None:
+    from slidingarm.plotting._worker import draw
+
+    runs = _results(2)
+    stems = {"steady_state": tmp_path / "w" / "b", "torque": tmp_path / "w" / "a"}
+    paths = draw(runs, "T", stems)
+    assert list(paths) == ["steady_state", "torque"]  # the order of the stems
+    assert paths == {"steady_state": tmp_path / "w" / "b.png", "torque": tmp_path / "w" / "a.png"}
+    alone = save_figure(
+        scenario_figures(runs, title="T", only=["torque"])["torque"], tmp_path / "alone"
+    )
+    assert (tmp_path / "w" / "a.svg").read_bytes() == alone[1].read_bytes()
+    assert (tmp_path / "w" / "a.png").read_bytes() == alone[0].read_bytes()
+    with pytest.raises(ValueError, match="unknown figure"):
+        draw(runs, "T", {"nope": tmp_path / "nope"})
+
+
+def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> None:
+    # what a worker imports to run its tasks; its initializer lowers its priority
+    code = (
+        "import os, sys\n"
+        "from slidingarm.plotting import _worker\n"
+        "before = os.nice(0)\n"
+        "_worker.init_worker(os.getppid())\n"
+        "_worker.warm_up()\n"
+        "bad = [m for m in ('pandas', 'slidingarm.study', 'slidingarm.config') if m in sys.modules]\n"
+        "assert not bad, bad\n"
+        "assert os.nice(0) == min(before + _worker.WORKER_NICENESS, 19), os.nice(0)\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

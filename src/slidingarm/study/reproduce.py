@@ -19,13 +19,11 @@ kept consistent)::
 from __future__ import annotations
 
 import concurrent.futures as cf
-import ctypes
 import datetime as _dt
 import multiprocessing
 import os
 import platform
 import signal
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -170,20 +168,17 @@ def render_figures(
     scenarios; ``<name>_<figure>`` for a figure the paper does not have,
     :func:`slidingarm.study.paper_report.figure_stem`); return figure name → PNG path. ``tool_paths`` (a
     serial arm's ``(desired, {label: actual})``, :func:`slidingarm.study.analysis.tool_paths`)
-    adds the tool-path figure. (Top-level so that a worker process can run it.)"""
-    from slidingarm.plotting import save_figure, scenario_figures
+    adds the tool-path figure. (A figure worker runs :func:`slidingarm.plotting._worker.draw`
+    itself, given the stems, so that it need not import this module.)"""
+    from slidingarm.plotting import FIGURES, TOOL_FIGURES
+    from slidingarm.plotting._worker import draw
     from slidingarm.study.paper_report import figure_stem
 
-    desired, actual = (None, None) if tool_paths is None else tool_paths
-    figures = scenario_figures(
-        results, title=title, only=only, tool_paths=actual, tool_reference=desired
-    )
-    paths: dict[str, Path] = {}
-    for fig_name in list(figures):
-        # each figure is dropped once saved (not cleared: that would rebuild its ticks)
-        written = save_figure(figures.pop(fig_name), fig_dir / figure_stem(name, fig_name), clear=False)
-        paths[fig_name] = next(p for p in written if p.suffix == ".png")
-    return paths
+    names = FIGURES + (TOOL_FIGURES if tool_paths is not None else ())
+    wanted = names if only is None else tuple(only)
+    # in the figures' own order; an unknown name is refused by scenario_figures
+    order = [f for f in names if f in wanted] + [f for f in wanted if f not in names]
+    return draw(results, title, {f: fig_dir / figure_stem(name, f) for f in order}, tool_paths)
 
 
 def _stage_runs(
@@ -263,68 +258,6 @@ def _config_text(scenario: Scenario) -> str:
         "(simulation.seed); run it again with `slidingarm run <this file> --out DIR`\n"
         + scenario.to_toml()
     )
-
-
-def _warm_up() -> None:
-    """Make a worker process ready for its first figure while the main process compiles and
-    simulates: import the plotting stack and draw and save a small figure (in memory), which
-    loads the fonts and fills matplotlib's caches."""
-    import io
-
-    import matplotlib
-    from matplotlib.figure import Figure
-
-    from slidingarm.plotting._style import PNG_DPI, RC
-
-    with matplotlib.rc_context(RC):
-        fig = Figure(figsize=(2.0, 1.5))
-        ax = fig.subplots()
-        ax.plot([0.0, 1.0], [0.0, 1.0], label="q\u0303\u2081 (rad)")
-        ax.set_yscale("symlog", linthresh=1e-3)
-        ax.set_title("warm-up — τ")
-        ax.legend()
-        fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
-        fig.savefig(io.BytesIO(), format="svg")
-
-
-def _compile_paper_law() -> None:
-    """Compile the paper's law (the errata's, reached through a pointer) into numba's cache
-    in a worker process, on the other core while the main process compiles the loop; the
-    main process then loads it from the cache. Nothing to do if it is cached already."""
-    from slidingarm.control import _dispatch as LD
-
-    LD.paper_pointer()
-
-
-#: ``prctl`` option asking Linux to send a signal to this process when its parent dies.
-_PR_SET_PDEATHSIG = 1
-#: How often a figure worker checks that its parent still runs (s).
-_WATCH_PERIOD_S = 0.5
-
-
-def _watch_parent(parent: int) -> None:
-    """Initializer of a figure worker: end the worker as soon as ``parent`` (the process that
-    started it) dies, even by ``kill -9``, so that no worker outlives an interrupted study.
-
-    On Linux the kernel kills the worker when its parent dies (``prctl(PR_SET_PDEATHSIG,
-    SIGKILL)``); everywhere a daemon thread also polls :func:`os.getppid`, which changes from
-    ``parent`` when the parent is gone.
-    """
-    if sys.platform.startswith("linux"):
-        try:
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):  # no prctl: the thread below still watches
-            pass
-    if os.getppid() != parent:  # the parent died before the worker got here
-        os._exit(1)
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(_WATCH_PERIOD_S)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
 
 
 def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
@@ -607,8 +540,10 @@ def reproduce(
         The command line to record in the manifest and report.
     jobs : int, optional
         Processes drawing the figures while the main process computes (default: up to 3,
-        bounded by the CPU count); 1 draws them in this process. A worker ends when this
-        process dies, even by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
+        bounded by the CPU count); 1 draws them in this process. The workers run at a lower
+        priority (:data:`slidingarm.plotting._worker.WORKER_NICENESS`), so that their start-up
+        does not slow this process's compilation. A worker ends when this process dies, even
+        by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
     overwrite : bool
         Replace the results of other scenarios (a ``run`` of one's own) in ``out_dir``.
 
@@ -652,18 +587,22 @@ def _reproduce(
         # figures are drawn in worker processes while this one computes; the workers start
         # at once, and while this process compiles the loop and simulates, they import
         # matplotlib, draw a first figure and compile the errata's law (all on the other core)
+        from slidingarm.plotting import _worker
+        from slidingarm.study.paper_report import figure_stem
+
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
         if workers:
             with _starting_workers():
                 pool = cf.ProcessPoolExecutor(
                     max_workers=workers,
                     mp_context=multiprocessing.get_context("spawn"),
-                    initializer=_watch_parent,
+                    initializer=_worker.init_worker,
                     initargs=(os.getpid(),),
                 )
-                paper_law = pool.submit(_compile_paper_law)
-                for _ in range(workers):
-                    pool.submit(_warm_up)
+                # the first worker also compiles the errata's law (before its warm-up)
+                paper_law = pool.submit(_worker.warm_up, True)
+                for _ in range(workers - 1):
+                    pool.submit(_worker.warm_up)
         setups = {name: s.build() for name, s in scenarios.items()}
         figures = _figure_names()
 
@@ -671,33 +610,27 @@ def _reproduce(
         total = n_runs * 2 + len(figures) * len(setups) + 2 + len(GRID_SCENARIOS) + 3
         steps = _Steps(progress, total)
 
+        fig_dir = staging.path / "figures"
+        fig_dir.mkdir(parents=True, exist_ok=True)
+        # one task per figure, so that the workers stay busy to the end (per scenario, the
+        # last scenario's figures were drawn by one worker while the others idled); a
+        # scenario's figures are handed out as soon as it is simulated, the dearest first
+        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {name: [] for name in setups}
         results: dict[str, dict[str, SimResult]] = {}
         for name, setup in setups.items():
             steps.start(f"{name}: simulating")
             results[name] = A.simulate_setup(setup)
             steps(f"{name}: simulated", len(setup.controllers))
-
-        fig_dir = staging.path / "figures"
-        fig_dir.mkdir(parents=True, exist_ok=True)
-        # one task per figure, so that the workers stay busy to the end (per scenario, the
-        # last scenario's figures were drawn by one worker while the others idled)
-        futures: dict[str, list[cf.Future[dict[str, Path]]]] = {name: [] for name in setups}
-        if pool is not None:
+            if pool is None:
+                continue
             with _starting_workers():
-                # the dearest figures first, so that the workers finish together
-                for name, figure in sorted(
-                    ((name, figure) for name in setups for figure in figures),
-                    key=lambda item: _FIGURE_COST.get(item[1], 1.0),
-                    reverse=True,
-                ):
+                for figure in sorted(figures, key=lambda f: _FIGURE_COST.get(f, 1.0), reverse=True):
                     futures[name].append(
                         pool.submit(
-                            render_figures,
-                            name,
+                            _worker.draw,
                             results[name],
-                            _title(setups[name]),
-                            fig_dir,
-                            (figure,),
+                            _title(setup),
+                            {figure: fig_dir / figure_stem(name, figure)},
                         )
                     )
 
@@ -711,18 +644,20 @@ def _reproduce(
         convergence = A.convergence_table(results, setups, CONVERGENCE_SCENARIOS)
         chattering = A.chattering_table(metrics)
         steps("convergence and chattering")
-        steps.start("errata")
-        if paper_law is not None:
-            with suppress(Exception):  # if the worker could not compile it, this process does
-                paper_law.result()
-        errata = A.errata_table(scenarios[ERRATA_SCENARIO])
-        steps("errata")
+        # the gain grids before the errata, which wait for the worker that compiles (or,
+        # warm, loads) the paper's law: that worker is done by then
         grids = []
         for name in GRID_SCENARIOS:
             steps.start(f"{name}: gain grid")
             grids.append(A.gain_grid(scenarios[name]))
             steps(f"{name}: gain grid")
         grid = pd.concat(grids, ignore_index=True)
+        steps.start("errata")
+        if paper_law is not None:
+            with suppress(Exception):  # if the worker could not compile it, this process does
+                paper_law.result()
+        errata = A.errata_table(scenarios[ERRATA_SCENARIO])
+        steps("errata")
         checks = A.checks_table(
             metrics,
             results,

@@ -1,0 +1,131 @@
+"""What a figure worker process of :func:`slidingarm.study.reproduce` runs.
+
+The functions a worker is handed (its initializer and its tasks) are pickled by reference, so
+the worker imports the module they live in. They live here, beside the plotting code and away
+from :mod:`slidingarm.study`, so that a worker imports only the package, matplotlib and the
+plotting code: not pandas, the scenario files' machinery nor the study's analyses (about 0.9 s
+of CPU per worker, spent on the core the main process does not use while it compiles).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import io
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from slidingarm.results import SimResult
+
+__all__ = ["WORKER_NICENESS", "compile_paper_law", "draw", "init_worker", "warm_up"]
+
+#: ``prctl`` option asking Linux to send a signal to this process when its parent dies.
+_PR_SET_PDEATHSIG = 1
+#: How often a figure worker checks that its parent still runs (s).
+_WATCH_PERIOD_S = 0.5
+#: How much a figure worker lowers its scheduling priority (:func:`os.nice`). While the main
+#: process compiles and simulates, the workers' start-up (imports, warm-up, the paper's law)
+#: would otherwise take a third of its core from it (three busy processes on two cores); so
+#: lowered, the workers take what the main process leaves. Later, while they draw, the main
+#: process has little to do, so their figures are not delayed.
+WORKER_NICENESS = 5
+
+
+def init_worker(parent: int) -> None:
+    """Initializer of a figure worker: lower its priority by :data:`WORKER_NICENESS` and end
+    it as soon as ``parent`` (the process that started it) dies, even by ``kill -9``, so that
+    no worker outlives an interrupted study.
+
+    On Linux the kernel kills the worker when its parent dies (``prctl(PR_SET_PDEATHSIG,
+    SIGKILL)``); everywhere a daemon thread also polls :func:`os.getppid`, which changes from
+    ``parent`` when the parent is gone.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # no prctl: the thread below still watches
+            pass
+    if os.getppid() != parent:  # the parent died before the worker got here
+        os._exit(1)
+    if hasattr(os, "nice"):  # before the thread below, which would keep the old priority
+        try:
+            os.nice(WORKER_NICENESS)
+        except OSError:  # not allowed here: the worker keeps its priority
+            pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(_WATCH_PERIOD_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
+
+
+def warm_up(paper_law: bool = False) -> None:
+    """Make a worker process ready for its first figure while the main process compiles and
+    simulates: import the plotting stack and draw and save a small figure (in memory), which
+    loads the fonts and fills matplotlib's caches; with ``paper_law``, first
+    :func:`compile_paper_law` (one task, so that the worker that compiles it is warmed up too:
+    a second warm-up task would go to whichever worker is free, the other one). The law comes
+    first because it shares small kernels with the main process's loop (the model's
+    ``sincos``): compiled and cached here early, the main process loads them instead of
+    compiling them (about 0.9 s of its compile measured, cold)."""
+    if paper_law:
+        compile_paper_law()
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    from slidingarm.plotting._style import PNG_DPI, RC
+
+    with matplotlib.rc_context(RC):
+        fig = Figure(figsize=(2.0, 1.5))
+        ax = fig.subplots()
+        ax.plot([0.0, 1.0], [0.0, 1.0], label="q\u0303\u2081 (rad)")
+        ax.set_yscale("symlog", linthresh=1e-3)
+        ax.set_title("warm-up — τ")
+        ax.legend()
+        fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
+        fig.savefig(io.BytesIO(), format="svg")
+
+
+def compile_paper_law() -> None:
+    """Compile the paper's law (the errata's, reached through a pointer) into numba's cache
+    in a worker process, on the other core while the main process compiles the loop; the
+    main process then loads it from the cache. Nothing to do if it is cached already."""
+    from slidingarm.control import _dispatch as LD
+
+    LD.paper_pointer()
+
+
+def draw(
+    results: Mapping[str, SimResult],
+    title: str,
+    stems: Mapping[str, str | os.PathLike[str]],
+    tool_paths: tuple[np.ndarray, Mapping[str, np.ndarray]] | None = None,
+) -> dict[str, Path]:
+    """Draw the figures ``stems`` names (figure name → path without extension) of one
+    scenario's ``results`` and save each as ``<stem>.png`` and ``<stem>.svg``
+    (:func:`slidingarm.plotting.save_figure`); return figure name → PNG path, in the order
+    of ``stems``. ``tool_paths`` as :func:`slidingarm.study.reproduce.render_figures`."""
+    from slidingarm.plotting import save_figure, scenario_figures
+
+    desired, actual = (None, None) if tool_paths is None else tool_paths
+    only: Sequence[str] = list(stems)
+    figures = scenario_figures(
+        results, title=title, only=only, tool_paths=actual, tool_reference=desired
+    )
+    paths: dict[str, Path] = {}
+    for fig_name in only:
+        # each figure is dropped once saved (not cleared: that would rebuild its ticks)
+        written = save_figure(figures.pop(fig_name), stems[fig_name], clear=False)
+        paths[fig_name] = next(p for p in written if p.suffix == ".png")
+    return paths
