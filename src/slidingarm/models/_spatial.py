@@ -60,7 +60,10 @@ other body (each body's inertia at the root and its bias force, about two thirds
 multiplications) runs as vector code over a group's 8 bodies, and the sines and cosines are
 inline arithmetic (:func:`_cos_sin`) rather than calls into libm. Measured on the UR5 (AMD
 EPYC, AVX-512, min of interleaved repeats): forward dynamics 0.49 -> 0.38 µs, an RK4 step
-with its kinematics 1.61 -> 1.29 µs, inverse dynamics 0.32 -> 0.26 µs.
+with its kinematics 1.61 -> 1.29 µs, inverse dynamics 0.32 -> 0.26 µs. On an AVX2 host (AMD
+EPYC, 16 vector registers) the pose and the velocities of pass 1 are two loops: one loop
+carrying both spilt most of its values to the stack (split: an RK4 step -7 to -10 % on the UR5
+and the Panda, same bits).
 """
 
 from __future__ import annotations
