@@ -60,7 +60,10 @@ other body (each body's inertia at the root and its bias force, about two thirds
 multiplications) runs as vector code over a group's 8 bodies, and the sines and cosines are
 inline arithmetic (:func:`_cos_sin`) rather than calls into libm. Measured on the UR5 (AMD
 EPYC, AVX-512, min of interleaved repeats): forward dynamics 0.49 -> 0.38 µs, an RK4 step
-with its kinematics 1.61 -> 1.29 µs, inverse dynamics 0.32 -> 0.26 µs.
+with its kinematics 1.61 -> 1.29 µs, inverse dynamics 0.32 -> 0.26 µs. On an AVX2 host (AMD
+EPYC, 16 vector registers) the pose and the velocities of pass 1 are two loops: one loop
+carrying both spilt most of its values to the stack (split: an RK4 step -7 to -10 % on the UR5
+and the Panda, same bits).
 """
 
 from __future__ import annotations
@@ -730,7 +733,8 @@ def _aba(
     :math:`R_{0i} = F\\,\\mathrm{Rot}(e_z, q_i)` (columns ``c F_0 + s F_1``, ``c F_1 - s F_0``,
     ``F_2``; a prismatic joint: :math:`R_{0i} = F`, :math:`r = p_0 + q_i R_0 e_z`); its joint's
     axis :math:`s_i = (e, p_{0i} \\times e)` (revolute) or :math:`(0, e)` (prismatic) with
-    :math:`e = R_{0i} e_z = F_2`; :math:`v_i = v_{i-1} + s_i \\dot q_i`; the acceleration at
+    :math:`e = R_{0i} e_z = F_2`; then, in a loop of its own over the stored axes,
+    :math:`v_i = v_{i-1} + s_i \\dot q_i` and the acceleration at
     :math:`\\ddot q = 0`, :math:`C_i = C_{i-1} + v_i \\times s_i \\dot q_i` from
     :math:`C_{-1} = (0, 0, 0, 0, 0, g)` (gravity as the root's acceleration). Then, for every
     body independently (the loop over a group's lanes, vector code): the rigid inertia
@@ -834,26 +838,10 @@ def _aba(
         e02 = f02
         e12 = f12
         e22 = f22
-        dq = qd[i]
-        q0 = s0 * dq
-        q1 = s1 * dq
-        q2 = s2 * dq
-        q3 = s3 * dq
-        q4 = s4 * dq
-        q5 = s5 * dq
-        wx += q0
-        wy += q1
-        wz += q2
-        vx += q3
-        vy += q4
-        vz += q5
-        # C += v x (s qd)
-        bx += wy * q2 - wz * q1
-        by += wz * q0 - wx * q2
-        bz += wx * q1 - wy * q0
-        cx += wy * q5 - wz * q4 + vy * q2 - vz * q1
-        cy += wz * q3 - wx * q5 + vz * q0 - vx * q2
-        cz += wx * q4 - wy * q3 + vx * q1 - vy * q0
+        # the velocities come in the next loop: one loop carrying the pose (12 values), the
+        # velocity and the acceleration (12 more) and their temporaries spilt most of them to
+        # the stack on AVX2's 16 registers; split, each fits (same arithmetic, same bits;
+        # measured: an RK4 step -7 to -10 % on the UR5 and the Panda, AMD EPYC with AVX2)
         k = (i >> 3) * _GROUP + (i & 7)
         buf[k + _F_E * _L] = e00
         buf[k + (_F_E + 1) * _L] = e01
@@ -867,6 +855,34 @@ def _aba(
         buf[k + _F_O * _L] = ox
         buf[k + (_F_O + 1) * _L] = oy
         buf[k + (_F_O + 2) * _L] = oz
+        buf[k + _F_S * _L] = s0
+        buf[k + (_F_S + 1) * _L] = s1
+        buf[k + (_F_S + 2) * _L] = s2
+        buf[k + (_F_S + 3) * _L] = s3
+        buf[k + (_F_S + 4) * _L] = s4
+        buf[k + (_F_S + 5) * _L] = s5
+    for i in range(n):
+        k = (i >> 3) * _GROUP + (i & 7)
+        dq = qd[i]
+        q0 = buf[k + _F_S * _L] * dq
+        q1 = buf[k + (_F_S + 1) * _L] * dq
+        q2 = buf[k + (_F_S + 2) * _L] * dq
+        q3 = buf[k + (_F_S + 3) * _L] * dq
+        q4 = buf[k + (_F_S + 4) * _L] * dq
+        q5 = buf[k + (_F_S + 5) * _L] * dq
+        wx += q0
+        wy += q1
+        wz += q2
+        vx += q3
+        vy += q4
+        vz += q5
+        # C += v x (s qd)
+        bx += wy * q2 - wz * q1
+        by += wz * q0 - wx * q2
+        bz += wx * q1 - wy * q0
+        cx += wy * q5 - wz * q4 + vy * q2 - vz * q1
+        cy += wz * q3 - wx * q5 + vz * q0 - vx * q2
+        cz += wx * q4 - wy * q3 + vx * q1 - vy * q0
         buf[k + _F_V * _L] = wx
         buf[k + (_F_V + 1) * _L] = wy
         buf[k + (_F_V + 2) * _L] = wz
@@ -879,12 +895,6 @@ def _aba(
         buf[k + (_F_C + 3) * _L] = cx
         buf[k + (_F_C + 4) * _L] = cy
         buf[k + (_F_C + 5) * _L] = cz
-        buf[k + _F_S * _L] = s0
-        buf[k + (_F_S + 1) * _L] = s1
-        buf[k + (_F_S + 2) * _L] = s2
-        buf[k + (_F_S + 3) * _L] = s3
-        buf[k + (_F_S + 4) * _L] = s4
-        buf[k + (_F_S + 5) * _L] = s5
     # every body's inertia at the root's origin and its bias force, a group's lanes at once;
     # the lane count is read from the buffer (it is _L) so that LLVM vectorises the loop
     # instead of unrolling it
