@@ -57,7 +57,9 @@ from contextlib import contextmanager
 
 import numpy as np
 from numba import njit
+from numba import types as numba_types
 from numba.core import config as _numba_config
+from numba.extending import overload
 
 from slidingarm import _engine as E
 from slidingarm import _vecmath as VM
@@ -631,12 +633,12 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
 
 @njit(**_OPT)
 def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, classic: bool,
-         paper: bool, dt: float, q_ref: np.ndarray, qd_ref: np.ndarray,
+         law_tag: np.ndarray, dt: float, q_ref: np.ndarray, qd_ref: np.ndarray,
          qdd_ref: np.ndarray) -> None:  # fmt: skip
     """The sliding-mode law per lane (:func:`slidingarm.control._kernels.control_into`):
     ``s`` into ``_S``, the torque into ``_TAU`` (``law = model``: the nominal RNEA at
-    :math:`\\ddot q_d - \\nu - r`; ``paper``: :func:`_paper_law`), the angles of the
-    measurement into ``_LC``, ``_LS``."""
+    :math:`\\ddot q_d - \\nu - r`; ``paper``: :func:`_paper_law`, chosen by the type of
+    ``law_tag``, :func:`_torque`), the angles of the measurement into ``_LC``, ``_LS``."""
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         qr = q_ref[k, j]
@@ -709,10 +711,27 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
                 ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
                 ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
     _angles_law(ws, n)
-    if paper:
-        _paper_law(ws, n)
-    else:
-        _rnea(ws, n)
+    _torque(ws, n, law_tag)
+
+
+#: The law of a block, as the *type* of an empty array passed to :func:`run_block`: the model
+#: law's kernel then never types (nor compiles) the paper's law, which only the errata use.
+MODEL_TAG = np.empty(0, dtype=np.float64)
+PAPER_TAG = np.empty(0, dtype=np.int8)
+
+
+def _torque(ws: np.ndarray, n: int, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
+    """The torque of the law that ``law_tag``'s type names (:data:`MODEL_TAG`: the nominal
+    RNEA, :func:`_rnea`; :data:`PAPER_TAG`: :func:`_paper_law`), chosen when numba types it."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_torque, jit_options={"nogil": True, "error_model": "numpy"})
+def _torque_typed(ws, n, law_tag):  # type: ignore[no-untyped-def]  # numba compares the names
+    # and annotations of this signature with the implementation's
+    if isinstance(law_tag, numba_types.Array) and law_tag.dtype == numba_types.int8:
+        return lambda ws, n, law_tag: _paper_law(ws, n)
+    return lambda ws, n, law_tag: _rnea(ws, n)
 
 
 @njit(**_OPT)
@@ -1062,6 +1081,7 @@ def run_block(
     acc: np.ndarray,
     tau_trace: np.ndarray,
     status: np.ndarray,
+    law_tag: np.ndarray,
 ) -> None:
     """``W`` closed-loop runs of planar plants ``pp`` (4, n, W) (gravity ``pg`` (W,)) under
     the sliding-mode law with codes ``codes`` (``CK.NCI``,) and table ``cf`` (``CK.NCF``, n,
@@ -1088,7 +1108,6 @@ def run_block(
     wsa = np.zeros(workspace_size(n))
     ws = E._borrow(wsa)
     fast_terminal = codes[CK.CI_SURFACE] == CK.SURFACE_FAST_TERMINAL
-    paper = codes[CK.CI_LAW] == CK.LAW_PAPER
     swcode = codes[CK.CI_SWITCHING]
     classic = codes[CK.CI_REACHING] == CK.REACH_CLASSIC
     delta_s = bands[0]
@@ -1130,7 +1149,7 @@ def run_block(
                     if has_dist:
                         ws[o + _DIST + ln] = dist[k, j, ln]
         exact = _measure(ws, n, k, vcode, dt, has_hold)
-        _law(ws, n, k, fast_terminal, swcode, classic, paper, dt, q_ref, qd_ref, qdd_ref)
+        _law(ws, n, k, fast_terminal, swcode, classic, law_tag, dt, q_ref, qd_ref, qdd_ref)
         _clip(ws, n)
         if stride > 0 and k % stride == 0:
             kk = k // stride
@@ -1195,7 +1214,7 @@ def run_block(
                         acc[b, r, j] = ws[J0 + j * JS + (_MACC + r) * W + ln]
 
 
-_compiled = False
+_compiled: set[bool] = set()
 
 
 @contextmanager
@@ -1209,12 +1228,12 @@ def _slp_vectorised() -> Iterator[None]:
         _numba_config.SLP_VECTORIZE = saved
 
 
-def compiled() -> None:
-    """Compile (or load from the cache) :func:`run_block` with the SLP vectoriser on: it is
-    what turns the unrolled lane loops into vector operations. Called by the batch before its
-    first block; a no-op afterwards."""
-    global _compiled
-    if _compiled:
+def compiled(paper: bool = False) -> None:
+    """Compile (or load from the cache) :func:`run_block` for the model law, or with
+    ``paper`` for the paper's law (a signature of its own, compiled only when a batch needs
+    it), with the SLP vectoriser on: it is what turns the unrolled lane loops into vector
+    operations. Called by the batch before its first block of that law; a no-op afterwards."""
+    if paper in _compiled:
         return
     from numba import types as T
 
@@ -1223,14 +1242,17 @@ def compiled() -> None:
     a1 = T.Array(f8, 1, "C")
     a2 = T.Array(f8, 2, "C")
     a3 = T.Array(f8, 3, "C")
+    tag = T.Array(T.int8 if paper else f8, 1, "C")
     sig = (
         T.Array(i8, 1, "C"), T.Array(i8, 1, "C"), a3, a1, a1, a3, a3, a1, a2, a2, a1, a2, a2,
         a2, a3, T.Array(T.boolean, 3, "C"), i8, a3, a3, a2, f8, i8, f8, i8, a3, a3, a3, a3,
-        a3, a3, T.boolean, a1, a3, a3, T.Array(i8, 2, "C"),
+        a3, a3, T.boolean, a1, a3, a3, T.Array(i8, 2, "C"), tag,
     )  # fmt: skip
     with _slp_vectorised():
         run_block.compile(sig)
-    _compiled = True
+    _compiled.add(paper)
+
+
 def _entry_time(t: np.ndarray, last: np.ndarray, xk: np.ndarray, xk1: np.ndarray, delta: float) -> np.ndarray:
     """:func:`slidingarm.metrics._entry_time` from the streamed last sample outside the band
     (``-1``: none) and the values there and at the next sample: the same formulas."""

@@ -479,6 +479,7 @@ def _run_blocks(
     traces into ``keep`` (six (B, K, n) arrays, every ``stride``-th sample), status into
     ``status`` (B, 3); with ``metrics``, the chunk's runs and their metrics."""
     from slidingarm import _block as BK
+    from slidingarm.control import _kernels as CK
     from slidingarm.metrics import (
         DEFAULT_CUTOFF_HZ,
         DEFAULT_DELTA_E,
@@ -537,6 +538,7 @@ def _run_blocks(
         if mhold is not None and not mhold.any():
             mhold = None
         first = int(lanes[0])
+        paper = codes[cidx[first], CK.CI_LAW] == CK.LAW_PAPER
         BK.run_block(
             lanes, local, _lanes(pp, pidx[lanes]), pg[pidx[lanes]], codes[cidx[first]],
             _lanes(cf, cidx[lanes]), _lanes(mp, cidx[lanes]), mg[cidx[lanes]],
@@ -546,7 +548,7 @@ def _run_blocks(
             int(vcodes[sidx[first]]), _lanes(vf, sidx[lanes]),
             np.empty((0, n, BK.W)) if dist is None else dist, _lanes(tl, lidx[lanes]),
             plan.dt, plan.substeps, plan.qd_limit, stride if keep is not None else 0, *outs,
-            metrics, bands, acc, tau_trace, status,
+            metrics, bands, acc, tau_trace, status, BK.PAPER_TAG if paper else BK.MODEL_TAG,
         )  # fmt: skip
         if metrics:
             failed = status[runs, 0] != E.STATUS_OK
@@ -909,9 +911,13 @@ def simulate_batch(
 
     if blockable:
         from slidingarm import _block as BK
+        from slidingarm.control import _kernels as CK
 
-        BK.compiled()
         stage = _block_stage(plan)
+        laws = {int(c) for c in stage.law[0][:, CK.CI_LAW]}
+        BK.compiled()  # the model law's kernel, whatever the batch (it is one cached signature)
+        if CK.LAW_PAPER in laws:
+            BK.compiled(paper=True)
         # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
         nthr = max(1, int(config.NUMBA_NUM_THREADS) if threads is None else int(threads))
         per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))

@@ -169,6 +169,7 @@ def test_the_threads_policy_bounds_the_threads_and_leaves_the_results_alone(path
             run(path, ARM, ctrls, REF, threads=bad, **kw)
 
 
+@pytest.mark.slow  # the paper's law has a block kernel of its own (about 15 s to compile)
 def test_the_papers_law_on_the_block_path_equals_the_scalar_path() -> None:
     """``law="paper"`` (eqs. 19-22: M^-1 by Cholesky solves per lane) beside ``law="model"``
     in one batch, every surface and both reaching laws: the same bits on both paths."""
