@@ -914,10 +914,9 @@ def simulate_batch(
         from slidingarm.control import _kernels as CK
 
         stage = _block_stage(plan)
-        laws = {int(c) for c in stage.law[0][:, CK.CI_LAW]}
-        BK.compiled()  # the model law's kernel, whatever the batch (it is one cached signature)
-        if CK.LAW_PAPER in laws:
-            BK.compiled(paper=True)
+        # the kernel of each law the batch has (the paper's is a signature of its own)
+        for paper in {bool(c == CK.LAW_PAPER) for c in stage.law[0][:, CK.CI_LAW]}:
+            BK.compiled(paper=paper)
         # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
         nthr = max(1, int(config.NUMBA_NUM_THREADS) if threads is None else int(threads))
         per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))

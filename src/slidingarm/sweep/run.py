@@ -338,18 +338,16 @@ def chunk_table(
     return table
 
 
-def run_chunk(
-    definition: SweepDefinition, c: int, *, threads: int | None = None
-) -> pd.DataFrame:
+def run_chunk(definition: SweepDefinition, c: int) -> pd.DataFrame:
     """Simulate chunk ``c`` of ``definition``: its table (see :func:`sweep`).
 
     :func:`draw_chunk`, :func:`stage_chunk`, :func:`simulate_chunk` and :func:`chunk_table`
     in turn. A pure function of ``(definition, c)``, picklable, so that it runs as a Dask task
     on a worker that shares no file system with the client (beyond the scenario's own table or
-    URDF files, if it has any). ``threads`` goes to :func:`simulate_chunk`.
+    URDF files, if it has any).
     """
     staged = stage_chunk(definition, draw_chunk(definition, c))
-    return chunk_table(definition, staged, simulate_chunk(definition, staged, threads=threads))
+    return chunk_table(definition, staged, simulate_chunk(definition, staged))
 
 
 # --------------------------------------------------------------------------------------------
