@@ -549,6 +549,7 @@ def _run_blocks(
             np.empty((0, n, BK.W)) if dist is None else dist, _lanes(tl, lidx[lanes]),
             plan.dt, plan.substeps, plan.qd_limit, stride if keep is not None else 0, *outs,
             metrics, bands, acc, tau_trace, status, BK.PAPER_TAG if paper else BK.MODEL_TAG,
+            BK.joints_tag(n),
         )  # fmt: skip
         if metrics:
             failed = status[runs, 0] != E.STATUS_OK
@@ -916,7 +917,7 @@ def simulate_batch(
         stage = _block_stage(plan)
         # the kernel of each law the batch has (the paper's is a signature of its own)
         for paper in {bool(c == CK.LAW_PAPER) for c in stage.law[0][:, CK.CI_LAW]}:
-            BK.compiled(paper=paper)
+            BK.compiled(paper=paper, n=plan.n)
         # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
         nthr = max(1, int(config.NUMBA_NUM_THREADS) if threads is None else int(threads))
         per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))
