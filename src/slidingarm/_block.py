@@ -79,9 +79,27 @@ tanh = VM.tanh
 _OPT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
+# A per-lane choice among three values is written as two one-level conditionals: LLVM turns
+# a two-way conditional into a select, but a nested one (a three-way phi) stays a branch, and
+# a lane loop with a branch is not vectorised (measured: the law's surface and switching
+# loops were scalar per lane, eight divisions each).
+
+
 @njit(inline="always", **_OPT)
 def _sgn(x: float) -> float:
-    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+    """``sign(x)`` in ``{-1, 0, 1}`` (``0`` for ``±0`` and NaN), as two selects: the bits of
+    ``1.0 if x > 0 else (-1.0 if x < 0 else 0.0)``."""
+    pos = 1.0 if x > 0.0 else 0.0
+    neg = 1.0 if x < 0.0 else 0.0
+    return pos - neg
+
+
+@njit(inline="always", **_OPT)
+def _clamp(x: float, lo: float, hi: float) -> float:
+    """``x`` clamped to ``[lo, hi]`` (``lo <= hi``; NaN kept), as two selects: the bits of
+    ``hi if x > hi else (lo if x < lo else x)``."""
+    y = lo if x < lo else x
+    return hi if x > hi else y
 
 
 # lane scalars: ws[_L_X + ln]
@@ -657,7 +675,7 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
                 eps_e = ws[o + _CFE + ln]
                 pw = ws[o + _TMP2 + ln]
                 ae = abs(ej)
-                sg = 1.0 if ej > 0.0 else (-1.0 if ej < 0.0 else 0.0)
+                sg = _sgn(ej)
                 s0 = edj + alpha * ej
                 s1 = s0 + beta * pw * sg
                 g_far = alpha + beta * gamma * pw / ae
@@ -678,7 +696,7 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
             for ln in range(W):
                 ej = ws[o + _QM + ln] - qr
                 edj = ws[o + _TMP + ln]
-                sg = 1.0 if edj > 0.0 else (-1.0 if edj < 0.0 else 0.0)
+                sg = _sgn(edj)
                 beta = ws[o + _CFB + ln]
                 gamma = ws[o + _CFG + ln]
                 ws[o + _S + ln] = ej + ws[o + _TMP2 + ln] * sg / beta
@@ -693,8 +711,8 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
             for ln in range(W):
                 s = ws[o + _S + ln]
                 x = s / ws[o + _CFW + ln]
-                sat = 1.0 if x > 1.0 else (-1.0 if x < -1.0 else x)
-                sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+                sat = _clamp(x, -1.0, 1.0)
+                sg = _sgn(s)
                 ws[o + _TMP + ln] = sg if sign else sat
         qddr = qdd_ref[k, j]
         if classic:
@@ -705,7 +723,7 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
         else:
             for ln in range(W):
                 s = ws[o + _S + ln]
-                sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+                sg = _sgn(s)
                 r = ws[o + _CFK + ln] * math.sqrt(abs(s)) * sg + ws[o + _ST + ln]
                 ws[o + _PR + ln] = r
                 ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
@@ -901,7 +919,7 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
             for ln in range(W):
                 lip = ws[o + _VF0 + E.VF_LIPSCHITZ * W + ln]
                 sigma = ws[o + _Z0 + ln] - ws[o + _QM + ln]
-                sg = 1.0 if sigma > 0.0 else (-1.0 if sigma < 0.0 else 0.0)
+                sg = _sgn(sigma)
                 qdm = ws[o + _QDM + ln]
                 ws[o + _Z0 + ln] += dt * (
                     -ws[o + _VF0 + E.VF_LAMBDA1 * W + ln] * math.sqrt(lip * abs(sigma)) * sg + qdm
@@ -928,7 +946,7 @@ def _clip(ws: np.ndarray, n: int) -> None:
             t_j = ws[o + _TAU + ln]
             lim = ws[o + _TMAX + ln]
             nlim = -lim
-            t_c = lim if t_j > lim else (nlim if t_j < nlim else t_j)
+            t_c = _clamp(t_j, nlim, lim)
             ws[o + _TAU + ln] = t_c
             ws[o + _TAPP + ln] = t_c + ws[o + _DIST + ln]
             fin = math.isfinite(t_c) and math.isfinite(ws[o + _S + ln])
