@@ -79,10 +79,11 @@ tanh = VM.tanh
 _OPT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
-# A per-lane choice among three values is written as two one-level conditionals: LLVM turns
-# a two-way conditional into a select, but a nested one (a three-way phi) stays a branch, and
-# a lane loop with a branch is not vectorised (measured: the law's surface and switching
-# loops were scalar per lane, eight divisions each).
+# A per-lane choice among three values is written as two one-level conditionals, and a
+# conjunction of per-lane conditions as ``&``, not ``and``: LLVM turns a two-way conditional
+# into a select, but a nested one (a three-way phi) and a short-circuit ``and`` stay branches,
+# and a lane loop with a branch is not vectorised (measured: the law's surface and switching
+# loops were scalar per lane, eight divisions each; the status checks were scalar too).
 
 
 @njit(inline="always", **_OPT)
@@ -887,12 +888,13 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
     """Measurement (``_QM``, from the added and held rows ``_MADD``, ``_MHOLD``) and velocity
     estimate (``_QDM``) per lane, as :func:`slidingarm._engine.control_sample`; whether every
     lane's measurement equals its state."""
+    may_hold = has_hold and k > 0
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             v = ws[o + _Q + ln] + ws[o + _MADD + ln]
             held = ws[o + _QMP + ln]
-            hold = has_hold and k > 0 and ws[o + _MHOLD + ln] != 0.0
+            hold = may_hold & (ws[o + _MHOLD + ln] != 0.0)
             ws[o + _QM + ln] = held if hold else v
     if vcode == E.VEL_TRUE or k == 0:
         for j in range(n):
@@ -949,9 +951,9 @@ def _clip(ws: np.ndarray, n: int) -> None:
             t_c = _clamp(t_j, nlim, lim)
             ws[o + _TAU + ln] = t_c
             ws[o + _TAPP + ln] = t_c + ws[o + _DIST + ln]
-            fin = math.isfinite(t_c) and math.isfinite(ws[o + _S + ln])
+            fin = math.isfinite(t_c) & math.isfinite(ws[o + _S + ln])
             bad = ws[_L_BAD + ln]
-            ws[_L_BAD + ln] = float(j) if (bad < 0.0 and not fin) else bad
+            ws[_L_BAD + ln] = float(j) if ((bad < 0.0) & (not fin)) else bad
 
 
 @njit(**_OPT)
@@ -963,15 +965,15 @@ def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
-            fin = math.isfinite(ws[o + _Q + ln]) and math.isfinite(ws[o + _QD + ln])
+            fin = math.isfinite(ws[o + _Q + ln]) & math.isfinite(ws[o + _QD + ln])
             code = ws[_L_CODE + ln]
-            first = code == E.STATUS_OK and not fin
+            first = (code == E.STATUS_OK) & (not fin)
             ws[_L_CODE + ln] = E.STATUS_NONFINITE if first else code
             joint = ws[_L_JOINT + ln]
             ws[_L_JOINT + ln] = float(j) if first else joint
     for ln in range(W):
         code = ws[_L_CODE + ln]
-        sing = code == E.STATUS_OK and ws[_L_OK + ln] == 0.0
+        sing = (code == E.STATUS_OK) & (ws[_L_OK + ln] == 0.0)
         ws[_L_CODE + ln] = E.STATUS_SINGULAR if sing else code
         joint = ws[_L_JOINT + ln]
         ws[_L_JOINT + ln] = 0.0 if sing else joint
@@ -979,7 +981,7 @@ def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             code = ws[_L_CODE + ln]
-            run = code == E.STATUS_OK and abs(ws[o + _QD + ln]) > qd_limit
+            run = (code == E.STATUS_OK) & (abs(ws[o + _QD + ln]) > qd_limit)
             ws[_L_CODE + ln] = E.STATUS_RUNAWAY if run else code
             joint = ws[_L_JOINT + ln]
             ws[_L_JOINT + ln] = float(j) if run else joint
