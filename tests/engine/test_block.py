@@ -198,3 +198,34 @@ def test_the_papers_law_on_the_block_path_equals_the_scalar_path() -> None:
         np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name), err_msg=name)
     # the paper's law is not the model law: the two FTSMC-tanh runs' torques differ
     assert np.max(np.abs(block.tau[0] - block.tau[4])) > 1e-3
+
+
+@pytest.mark.slow  # each joint count compiles a block kernel of its own (about 15 s each)
+@pytest.mark.parametrize("n", [2, 4])
+def test_other_joint_counts_on_the_block_path_equal_the_scalar_path(n: int) -> None:
+    """The block kernel is compiled per joint count (the count is part of its signature): a
+    2- and a 4-joint arm give the scalar path's bits, with noise, a dirty derivative, a
+    disturbance and a torque limit that binds."""
+    arm = sa.PlanarArm(np.linspace(1.2, 0.6, n), np.linspace(0.8, 0.4, n))
+    q_end = np.linspace(0.6, -0.4, n)
+    ref = sa.QuinticReference(np.zeros(n), q_end, duration=T_FINAL)
+    ctrls = [
+        sa.FTSMC(arm, alpha=2, beta=2, p=5, q=3, k=float(k), switching="tanh", width=0.05)
+        for k in np.linspace(15.0, 25.0, 9)
+    ]
+    nb = len(ctrls)
+    q0 = np.random.default_rng(n).normal(0.0, 0.05, (nb, n))
+    kw = dict(
+        q0=q0, t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(nb)),
+        disturbances=[[sa.SinusoidalTorque(0.5, 3.0)]] * nb,
+        torque_limit=[None if i % 2 else 8.0 for i in range(nb)],
+    )  # fmt: skip
+    block = run("block", arm, ctrls, ref, **kw)
+    scalar = run("scalar", arm, ctrls, ref, **kw)
+    assert np.all(block.ok) and np.all(scalar.ok)
+    assert block.q is not None and block.q.shape == (nb, scalar.q.shape[1], n)
+    for name in SIGNALS:
+        np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name), err_msg=name)
+    # the limit binds on the limited runs: their torques reach it and stay within it
+    assert np.max(np.abs(block.tau[0])) == pytest.approx(8.0)
+    assert np.max(np.abs(block.tau[1])) > 8.0
