@@ -14,13 +14,17 @@ accumulators) lives in one flat float64 workspace, structure of arrays: lane sca
 ``ws[_L_X + ln]``, joint ``i``'s rows at ``ws[J0 + i JS + _X + ln]`` with every ``_X`` a
 multiple of ``W``, the lane index ``ln`` innermost and contiguous. Every lane loop is ``for ln
 in range(W)`` with ``W`` a compile-time constant and a branch-free body (a per-lane choice is a
-select between two computed values). One array and offsets that differ by compile-time
-constants let LLVM prove that a loop's stores do not alias its loads, so its SLP vectoriser
-turns each unrolled lane loop into ``<8 x double>`` operations (several arrays, or rows
-strided by the run-time ``n``, defeat that proof and nothing vectorises). numba leaves the SLP
-vectoriser off by default; :func:`compiled` turns it on for this module's compilation only.
-A lane loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those
-calls have loops of their own and the arithmetic around them still vectorises.
+select between two computed values: one-level conditionals and ``&`` of conditions, since a
+nested conditional or a short-circuit ``and`` stays a branch, :func:`_sgn`). One array and
+offsets that differ by compile-time constants let LLVM prove that a loop's stores do not alias
+its loads, so its SLP vectoriser turns each unrolled lane loop into ``<8 x double>``
+operations (several arrays, or rows strided by a run-time stride, defeat that proof and
+nothing vectorises). numba leaves the SLP vectoriser off by default; :func:`compiled` turns it
+on for this module's compilation only. The joint count ``n`` is a compile-time constant too
+(a kernel per joint count, :func:`compiled`): the loops over joints unroll, and what one
+joint's iteration leaves for the next stays in registers instead of the workspace. A lane
+loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those calls
+have loops of their own and the arithmetic around them still vectorises.
 
 **Results.** Each lane computes exactly what :func:`~slidingarm._engine.run_one` computes for
 its run: the same floating-point operations in the same order, with the same elementary
