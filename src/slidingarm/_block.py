@@ -56,6 +56,7 @@ the kernel writes each run's torque trace ``(T, n)``, and numpy computes it per 
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -1128,6 +1129,8 @@ def run_block(
     """
     nt = tgrid.shape[0]
     n = len(joints)
+    if q0.shape[0] != n or pp.shape[1] != n or mp.shape[1] != n or cf.shape[1] != n:
+        raise ValueError("run_block: joints must have one entry per joint of q0, pp, mp and cf")
     h = dt / substeps
     has_add = madd.shape[0] > 0
     has_hold = mhold.shape[0] > 0
@@ -1257,7 +1260,7 @@ def _slp_vectorised() -> Iterator[None]:
 
 def joints_tag(n: int) -> tuple[int, ...]:
     """The ``joints`` argument of :func:`run_block` for ``n`` joints: ``n`` zeros."""
-    return (0,) * n
+    return (0,) * int(n)
 
 
 def compiled(paper: bool = False, n: int = 3) -> None:
@@ -1272,10 +1275,11 @@ def compiled(paper: bool = False, n: int = 3) -> None:
     run-time ``n`` stores to the workspace and loads back at the next joint. Measured on the
     paper's arm (AMD EPYC, AVX-512): the RK4 step of a block 3400 -> 1800 cycles, a whole
     block step about -20 %; each joint count compiles (and caches) a kernel of its own."""
+    if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
+        raise ValueError(f"n must be an integer >= 1, got {n!r}")
+    n = int(n)
     if (paper, n) in _compiled:
         return
-    if not (isinstance(n, int) and n >= 1):
-        raise ValueError(f"n must be an int >= 1, got {n!r}")
     from numba import types as T
 
     f8 = T.float64

@@ -774,8 +774,8 @@ def simulate_batch(
         (:mod:`slidingarm._block`, eight runs advanced together, bit-identical per run) when
         every run is a planar arm under a built-in sliding-mode law and
         :math:`B \\ge` :data:`BLOCK_MIN_RUNS`, else the per-run loop. ``False``: always the
-        per-run loop (the block kernel's first compilation, about 15 s once per cache, is not
-        worth it for a few dozen runs). ``True``: the block path, and a ``ValueError`` saying
+        per-run loop (the block kernel's first compilation, about 15 s once per cache for each
+        law and joint count, is not worth it for a few dozen runs). ``True``: the block path, and a ``ValueError`` saying
         why if the batch cannot take it.
     threads : int or None
         At most this many threads run the batch's compiled loops (each releases the GIL).
@@ -915,7 +915,8 @@ def simulate_batch(
         from slidingarm.control import _kernels as CK
 
         stage = _block_stage(plan)
-        # the kernel of each law the batch has (the paper's is a signature of its own)
+        # the kernel of each law the batch has (the paper's is a signature of its own), for
+        # the batch's joint count (a signature each)
         for paper in {bool(c == CK.LAW_PAPER) for c in stage.law[0][:, CK.CI_LAW]}:
             BK.compiled(paper=paper, n=plan.n)
         # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread

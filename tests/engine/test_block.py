@@ -2,8 +2,9 @@
 scalar path's run bit for bit, failures are named per run, metrics stream to the numpy ones,
 and a batch does not depend on the thread count, the block size or the lane a run lands in.
 
-One compiled block kernel serves every test (short runs, small batches); each path is chosen
-by ``simulate_batch``'s ``block`` policy.
+One compiled block kernel (the paper's 3-joint arm, model law) serves every test of the default
+run (short runs, small batches); the paper's law and other joint counts compile kernels of
+their own and are marked slow. Each path is chosen by ``simulate_batch``'s ``block`` policy.
 """
 
 from __future__ import annotations
@@ -167,6 +168,16 @@ def test_the_threads_policy_bounds_the_threads_and_leaves_the_results_alone(path
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(ValueError, match=r"threads must be None or an integer >= 1"):
             run(path, ARM, ctrls, REF, threads=bad, **kw)
+
+
+def test_the_kernel_is_compiled_for_a_joint_count_that_is_a_positive_integer() -> None:
+    from slidingarm import _block as BK
+
+    for bad in (0, -1, 2.5, True, "3", None):
+        with pytest.raises(ValueError, match=r"n must be an integer >= 1"):
+            BK.compiled(paper=False, n=bad)  # type: ignore[arg-type]
+    BK.compiled(paper=False, n=np.int64(3))  # type: ignore[arg-type]  # numpy integers are integers
+    assert BK.joints_tag(np.int64(3)) == (0, 0, 0)  # type: ignore[arg-type]
 
 
 @pytest.mark.slow  # the paper's law has a block kernel of its own (about 15 s to compile)
