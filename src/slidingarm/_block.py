@@ -1324,10 +1324,11 @@ def finish_metrics(
     delta_s: float,
     delta_e: float,
     cutoff_hz: float,
+    work: SpectrumWork | None = None,
 ) -> dict[str, np.ndarray]:
     """The metrics of :func:`slidingarm.results.metric_values` from the streamed accumulators
     ``acc`` (B, NACC, n) and the applied torques ``tau_trace`` (B, T, n) (its last row unused),
-    NaN for ``failed`` runs."""
+    NaN for ``failed`` runs; ``work``: the spectral metric's buffers (:class:`SpectrumWork`)."""
     nt = t.shape[0]
 
     def total(row: int) -> np.ndarray:
@@ -1348,7 +1349,7 @@ def finish_metrics(
         "control_effort": total(M_EFF),
         "peak_torque": np.array(acc[:, M_PEAK]),
         "chattering": total(M_CHAT) / (t[-1] - t[0]),
-        "hf_power_share": hf_power_share(t, trace, cutoff_hz),
+        "hf_power_share": hf_power_share(t, trace, cutoff_hz, work=work),
     }
     out = {}
     for name, v in table.items():
@@ -1441,7 +1442,28 @@ def _power_sums(spectrum: np.ndarray, first_high: int, even: bool, out: np.ndarr
             out[1, c, j] = _sum(wp, min(first_high, nk), nk)
 
 
-def hf_power_share(t: np.ndarray, tau: np.ndarray, cutoff_hz: float) -> np.ndarray:
+#: numpy's FFT writes into a given array from numpy 2.0 on.
+_FFT_OUT = np.lib.NumpyVersion(np.__version__) >= "2.0.0"
+
+
+class SpectrumWork:
+    """Buffers of :func:`hf_power_share` for up to ``runs`` series of ``samples`` torques
+    (``n`` joints), reused by every block of a chunk: three fresh arrays of a block's size
+    (its traces, their residuals, their spectra: 1.7 MB each for the paper's run) cost about
+    900 page faults a block, and their first touch evicted what the kernel had left in cache
+    (measured: the Python part of a metrics-mode block 30 % of its time). Not shared between
+    threads: each chunk's loop makes its own."""
+
+    def __init__(self, runs: int, samples: int, n: int) -> None:
+        applied = max(samples - 1, 1)
+        self.trace = np.empty((runs, samples, n))
+        self.resid = np.empty((runs, n, applied))
+        self.spectrum = np.empty((runs, n, applied // 2 + 1), dtype=np.complex128)
+
+
+def hf_power_share(
+    t: np.ndarray, tau: np.ndarray, cutoff_hz: float, *, work: SpectrumWork | None = None
+) -> np.ndarray:
     """:func:`slidingarm.metrics.hf_power_share` of the torques ``tau`` (C, T, n) on the
     validated uniform grid ``t``: the same formulas (least-squares detrending, one-sided
     weighted power of ``rfft`` above ``cutoff_hz`` over all of it, 0 for a flat series), the
@@ -1458,11 +1480,15 @@ def hf_power_share(t: np.ndarray, tau: np.ndarray, cutoff_hz: float) -> np.ndarr
         # the metric's own answer (zeros) or error (a cut-off beyond the Nyquist frequency)
         return np.asarray(M.hf_power_share(t, tau, cutoff_hz=cutoff_hz), dtype=np.float64)
     nc, _, n = tau.shape
-    resid = np.empty((nc, n, n_applied))
+    fits = work is not None and work.resid.shape[0] >= nc and work.resid.shape[1:] == (n, n_applied)
+    resid = work.resid[:nc] if fits and work is not None else np.empty((nc, n, n_applied))
     rms = np.empty((nc, n))
     scale = np.empty((nc, n))
     _detrend(np.ascontiguousarray(tau), ta, resid, rms, scale)
-    spectrum = np.fft.rfft(resid, axis=-1)
+    if fits and work is not None and _FFT_OUT:
+        spectrum = np.fft.rfft(resid, axis=-1, out=work.spectrum[:nc])
+    else:
+        spectrum = np.fft.rfft(resid, axis=-1)
     freqs = np.fft.rfftfreq(n_applied, d=dt)
     sums = np.empty((2, nc, n))
     first_high = int(np.searchsorted(freqs, cutoff_hz, side="right"))

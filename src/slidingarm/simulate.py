@@ -501,6 +501,9 @@ def _run_blocks(
     qd0s = plan.qd0 if plan.qd0.shape[0] > 1 else np.broadcast_to(plan.qd0, (plan.nb, n))
     done: list[NDArray[np.int64]] = []
     values: list[dict[str, FloatArray]] = []
+    # the torque traces and the spectral metric's buffers, one block's worth, reused by every
+    # block of this chunk (a block's runs write all of their rows before the metrics read them)
+    spectra = BK.SpectrumWork(BK.W, nt, n) if metrics else None
     for lanes in blocks:
         # the block's distinct runs (a padded block repeats one) and each lane's index there
         runs = np.array(list(dict.fromkeys(lanes.tolist())), dtype=np.int64)
@@ -508,8 +511,9 @@ def _run_blocks(
         local = np.array([where[int(b)] for b in lanes], dtype=np.int64)
         # the metrics' working set is one block's: memory does not grow with the chunk
         if metrics:
+            assert spectra is not None
             acc = np.zeros((runs.shape[0], BK.NACC, n))
-            tau_trace = np.zeros((runs.shape[0], nt, n))
+            tau_trace = spectra.trace[: runs.shape[0]]
         else:
             acc = np.zeros((1, BK.NACC, n))
             tau_trace = dummy
@@ -556,7 +560,7 @@ def _run_blocks(
             done.append(runs)
             part = BK.finish_metrics(
                 t, acc, tau_trace, failed, delta_s=DEFAULT_DELTA_S, delta_e=DEFAULT_DELTA_E,
-                cutoff_hz=DEFAULT_CUTOFF_HZ,
+                cutoff_hz=DEFAULT_CUTOFF_HZ, work=spectra,
             )  # fmt: skip
             values.append(part)
     if not metrics:
