@@ -21,6 +21,7 @@ import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from queue import SimpleQueue
 from typing import Any, Literal
 
 import numpy as np
@@ -474,10 +475,13 @@ def _run_blocks(
     stride: int,
     status: NDArray[np.int64],
     metrics: bool,
+    spectra: Any = None,
 ) -> tuple[NDArray[np.int64], dict[str, FloatArray]] | None:
     """Run ``blocks`` (lane arrays of run indices) with :func:`slidingarm._block.run_block`:
     traces into ``keep`` (six (B, K, n) arrays, every ``stride``-th sample), status into
-    ``status`` (B, 3); with ``metrics``, the chunk's runs and their metrics."""
+    ``status`` (B, 3); with ``metrics``, the chunk's runs and their metrics, the torque traces
+    and the spectral metric's buffers in ``spectra`` (a :class:`slidingarm._block.SpectrumWork`
+    of this thread's; a new one if ``None``)."""
     from slidingarm import _block as BK
     from slidingarm.control import _kernels as CK
     from slidingarm.metrics import (
@@ -502,8 +506,9 @@ def _run_blocks(
     done: list[NDArray[np.int64]] = []
     values: list[dict[str, FloatArray]] = []
     # the torque traces and the spectral metric's buffers, one block's worth, reused by every
-    # block of this chunk (a block's runs write all of their rows before the metrics read them)
-    spectra = BK.SpectrumWork(BK.W, nt, n) if metrics else None
+    # block (a block's runs write all of their rows before the metrics read them)
+    if metrics and spectra is None:
+        spectra = BK.SpectrumWork(BK.W, nt, n)
     for lanes in blocks:
         # the block's distinct runs (a padded block repeats one) and each lane's index there
         runs = np.array(list(dict.fromkeys(lanes.tolist())), dtype=np.int64)
@@ -928,12 +933,25 @@ def simulate_batch(
         per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))
         bchunks = [stage.blocks[i : i + per] for i in range(0, len(stage.blocks), per)]
 
+        bthreads = max(1, min(nthr, len(bchunks)))
+        # one set of the metrics' block buffers per thread, for the whole batch: allocated
+        # per chunk they were faulted in (and out) again every few blocks
+        spare: SimpleQueue[Any] = SimpleQueue()
+        for _ in range(bthreads if metrics is not None else 0):
+            spare.put(BK.SpectrumWork(BK.W, plan.t.shape[0], n))
+
         def bwork(
             blocks: list[NDArray[np.int64]],
         ) -> tuple[NDArray[np.int64], dict[str, FloatArray]] | None:
-            return _run_blocks(plan, stage, blocks, keep, stride, status, metrics is not None)
+            spectra = spare.get() if metrics is not None else None
+            try:
+                return _run_blocks(
+                    plan, stage, blocks, keep, stride, status, metrics is not None, spectra
+                )
+            finally:
+                if spectra is not None:
+                    spare.put(spectra)
 
-        bthreads = max(1, min(nthr, len(bchunks)))
         if bthreads <= 1:
             bparts = [bwork(c) for c in bchunks]
         else:
