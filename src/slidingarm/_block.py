@@ -390,7 +390,11 @@ def _rnea(ws: np.ndarray, n: int) -> None:
             ws[o + _TAU + ln] = mom
 
 
-@njit(**_OPT)
+# The plant's passes are inlined by LLVM into the RK4 step (``forceinline``; numba still
+# compiles each body once): called, each of the 7 calls a step made saved and reloaded its
+# registers around a vzeroupper. RK4 of a paper-arm block 1490-1590 -> 1300-1500 ticks
+# (bench_block_parts, two processes side by side, each core once), same bits.
+@njit(forceinline=True, **_OPT)
 def _aba(ws: np.ndarray, n: int) -> None:
     """Planar ABA of the plant per lane
     (:func:`slidingarm.models._kernels.aba_from_angles_into`): the acceleration at velocity
@@ -536,7 +540,7 @@ _R42 = 1.0 / 42.0
 _R56 = 1.0 / 56.0
 
 
-@njit(**_OPT)
+@njit(forceinline=True, **_OPT)
 def _stage_angles(ws: np.ndarray, n: int) -> None:
     """Angles of the stage position ``_QT`` into ``_AC``, ``_AS``: the base angles rotated by
     the summed steps ``_DQ`` (:func:`slidingarm.models._kernels.shifted_angles_into` per
