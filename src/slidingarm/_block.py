@@ -287,7 +287,7 @@ def _neumaier(ws: np.ndarray, at: int, x: float) -> None:
     ws[at] = t
 
 
-@njit(**_OPT)
+@njit(forceinline=True, **_OPT)
 def _angles_law(ws: np.ndarray, n: int) -> None:
     """Cosines and sines of the absolute angles of the measurement ``_QM`` into ``_LC``,
     ``_LS`` (:func:`slidingarm.models._kernels.angles_into` per lane)."""
@@ -333,7 +333,7 @@ def _angles_stage(ws: np.ndarray, n: int) -> None:
             ws[o + _DS + ln] = sv
 
 
-@njit(**_OPT)
+@njit(forceinline=True, **_OPT)
 def _rnea(ws: np.ndarray, n: int) -> None:
     """Planar RNEA of the nominal model per lane
     (:func:`slidingarm.models._kernels._rnea_from_angles`, ``qdd_scale = 1``): ``tau =
@@ -390,10 +390,13 @@ def _rnea(ws: np.ndarray, n: int) -> None:
             ws[o + _TAU + ln] = mom
 
 
-# The plant's passes are inlined by LLVM into the RK4 step (``forceinline``; numba still
-# compiles each body once): called, each of the 7 calls a step made saved and reloaded its
-# registers around a vzeroupper. RK4 of a paper-arm block 1490-1590 -> 1300-1500 ticks
-# (bench_block_parts, two processes side by side, each core once), same bits.
+# The step's phases are inlined by LLVM (``forceinline``; numba still compiles each body
+# once): the plant's passes into the RK4 step, the law's pieces into the law, and RK4, the
+# law and the metrics into run_block's loop. Called, each call saved and reloaded registers
+# around a vzeroupper and kept values in the workspace. RK4 of a paper-arm block
+# 1490-1590 -> 1300-1500 ticks with the first two, the whole block step -10 % more with the
+# rest (bench_block_parts, two processes side by side); the same bits, and a cold compile of
+# 12.4 instead of 15.9 CPU-s.
 @njit(forceinline=True, **_OPT)
 def _aba(ws: np.ndarray, n: int) -> None:
     """Planar ABA of the plant per lane
@@ -609,7 +612,7 @@ def _keep_stage(ws: np.ndarray, n: int, krow: int) -> None:
             ws[o + krow + ln] = ws[o + _KX + ln]
 
 
-@njit(**_OPT)
+@njit(forceinline=True, **_OPT)
 def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
     """One RK4 step of every lane (:func:`slidingarm.models._kernels.rk4_step`); ``known``:
     ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
@@ -659,7 +662,7 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
             ws[o + _QD + ln] = qd + h / 6.0 * (k0 + 2.0 * k1 + 2.0 * k2 + k3)
 
 
-@njit(**_OPT)
+@njit(forceinline=True, **_OPT)
 def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, classic: bool,
          law_tag: np.ndarray, dt: float, q_ref: np.ndarray, qd_ref: np.ndarray,
          qdd_ref: np.ndarray) -> None:  # fmt: skip
@@ -996,7 +999,7 @@ def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
             ws[_L_JOINT + ln] = float(j) if run else joint
 
 
-@njit(**_OPT)
+@njit(forceinline=True, **_OPT)
 def _stream_metrics(ws: np.ndarray, n: int, tgrid: np.ndarray, q_ref: np.ndarray, k: int,
                     delta_s: float, delta_e: float, start: int) -> None:  # fmt: skip
     """Sample ``k``'s part of every streamed metric (see :func:`finish_metrics`)."""
