@@ -784,8 +784,8 @@ def simulate_batch(
         every run is a planar arm under a built-in sliding-mode law and
         :math:`B \\ge` :data:`BLOCK_MIN_RUNS`, else the per-run loop. ``False``: always the
         per-run loop (the block kernel's first compilation, about 15 s once per cache for each
-        law and joint count, is not worth it for a few dozen runs). ``True``: the block path, and a ``ValueError`` saying
-        why if the batch cannot take it.
+        law and joint count, is not worth it for a few dozen runs). ``True``: the block path,
+        and a ``ValueError`` saying why if the batch cannot take it.
     threads : int or None
         At most this many threads run the batch's compiled loops (each releases the GIL).
         ``None`` (default): numba's ``NUMBA_NUM_THREADS`` (the machine's cores unless set). A
