@@ -240,3 +240,15 @@ def test_other_joint_counts_on_the_block_path_equal_the_scalar_path(n: int) -> N
     # the limit binds on the limited runs: their torques reach it and stay within it
     assert np.max(np.abs(block.tau[0])) == pytest.approx(8.0)
     assert np.max(np.abs(block.tau[1])) > 8.0
+    if n == 2:
+        # a joints tag that is not the data's joint count (here the 2-joint kernel handed the
+        # paper's 3-joint arm) is refused by the kernel, not run past its workspace
+        from slidingarm import _block as BK
+
+        real = BK.joints_tag
+        BK.joints_tag = lambda m: real(2)  # type: ignore[assignment]
+        try:
+            with pytest.raises(ValueError, match="one entry per joint"):
+                run("block", ARM, ftsmc("sign"), REF, q0=q0s(16), t_final=T_FINAL, dt=DT)
+        finally:
+            BK.joints_tag = real  # type: ignore[assignment]
