@@ -37,7 +37,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
@@ -391,3 +391,43 @@ def model_rk4_step(
 Q_ROW = _Q
 QD_ROW = _QD
 TAU_APPLIED_ROW = _TAU_APPLIED
+
+
+# the loop's separately compiled parts
+_V = types.float64[::1]
+_M = types.float64[:, ::1]
+
+#: The functions :func:`run_one` calls that numba compiles as functions of their own (LLVM
+#: inlines them, ``forceinline``), with the signature the loop calls them with: the law (with
+#: its ``|x|^g`` and ``tanh``) and the planar RK4 step (with its ``sincos``). They are about
+#: 60 % of the loop's first compilation (4.8 of 8.4 CPU-s measured cold), and they compile into
+#: numba's cache in any process: :func:`compile_part` in two other processes, and then a
+#: process compiling the loop loads them from the cache instead of compiling them, so its own
+#: first compilation is about 3 CPU-s (:func:`slidingarm.study.reproduce` does this with its
+#: figure workers). A test checks that the loop's compilation finds these signatures cached.
+LOOP_PARTS: tuple[tuple[Any, Any], ...] = (
+    (CK.sliding_mode_into, types.void(_V, types.int64, _M, types.float64, _V, _V, _V, _V, _V, _V,
+                                     types.float64, _V, _V, _M)),
+    (PK.rk4_step, types.boolean(_M, types.float64, _V, _V, _V, types.float64, types.boolean, _M,
+                               _M)),
+)  # fmt: skip
+
+
+def compile_part(index: int) -> None:
+    """Compile part ``index`` of :data:`LOOP_PARTS` for its signature (into numba's cache;
+    nothing to do if it is cached already)."""
+    dispatcher, sig = LOOP_PARTS[index]
+    # by its argument types alone: numba's cache keys an entry by what ``compile`` was given,
+    # and the loop's typing asks for the argument types
+    dispatcher.compile(sig.args)
+
+
+def loop_cached() -> bool:
+    """Whether numba's cache holds :func:`run_one` compiled from this source (for some
+    signature): then a process loads the loop from it and compiles no part of it, and
+    need not wait for :func:`compile_part` elsewhere. Reads numba's cache index (not a public
+    API: if it cannot be read, ``False``)."""
+    try:
+        return bool(run_one._cache._cache_file._load_index())
+    except Exception:  # numba's internals moved: assume a cold cache
+        return False

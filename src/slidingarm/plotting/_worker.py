@@ -25,7 +25,14 @@ if TYPE_CHECKING:
 
     from slidingarm.results import SimResult
 
-__all__ = ["WORKER_NICENESS", "compile_paper_law", "draw", "init_worker", "warm_up"]
+__all__ = [
+    "WORKER_NICENESS",
+    "compile_loop_part",
+    "compile_paper_law",
+    "draw",
+    "init_worker",
+    "warm_up",
+]
 
 #: ``prctl`` option asking Linux to send a signal to this process when its parent dies.
 _PR_SET_PDEATHSIG = 1
@@ -95,6 +102,15 @@ def warm_up(paper_law: bool = False) -> None:
         ax.legend()
         fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
         fig.savefig(io.BytesIO(), format="svg")
+
+
+def compile_loop_part(index: int) -> None:
+    """Compile part ``index`` of the loop (:data:`slidingarm._engine.LOOP_PARTS`) into numba's
+    cache, on another core while the main process starts up; the main process then compiles
+    only the loop's own body (nothing to do if the part is cached already)."""
+    from slidingarm import _engine
+
+    _engine.compile_part(index)
 
 
 def compile_paper_law() -> None:

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from slidingarm import _engine as E
 from slidingarm._version import __version__
 from slidingarm.config import Scenario, Setup
 from slidingarm.models.serial import SerialArm
@@ -591,6 +592,8 @@ def _reproduce(
         from slidingarm.study.paper_report import figure_stem
 
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
+        parts: list[cf.Future[None]] = []
+        cold = not E.loop_cached()
         if workers:
             with _starting_workers():
                 pool = cf.ProcessPoolExecutor(
@@ -599,11 +602,20 @@ def _reproduce(
                     initializer=_worker.init_worker,
                     initargs=(os.getpid(),),
                 )
-                # the first worker also compiles the errata's law (before its warm-up)
+                # the loop's separately compiled parts first, one per worker as they come
+                # free, so that the loop's compilation here only loads them; then the errata's
+                # law (whose worker warms up after it) and the other workers' warm-ups
+                if cold:
+                    parts = [
+                        pool.submit(_worker.compile_loop_part, i) for i in range(len(E.LOOP_PARTS))
+                    ]
                 paper_law = pool.submit(_worker.warm_up, True)
                 for _ in range(workers - 1):
                     pool.submit(_worker.warm_up)
         setups = {name: s.build() for name, s in scenarios.items()}
+        for part in parts:
+            with suppress(Exception):  # a part a worker could not compile, the loop compiles
+                part.result()
         figures = _figure_names()
 
         n_runs = sum(len(s.controllers) for s in setups.values())

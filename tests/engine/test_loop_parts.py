@@ -1,0 +1,55 @@
+"""The loop's separately compiled parts (``slidingarm._engine.LOOP_PARTS``): compiled into
+numba's cache by one process, they are what another process's compilation of the loop asks
+for, so it loads them instead of compiling them (``slidingarm reproduce`` compiles them in its
+figure workers while it starts up). Each process here has its own empty numba cache."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+_COMPILE_PARTS = """
+from slidingarm import _engine as E
+assert not E.loop_cached()
+for i in range(len(E.LOOP_PARTS)):
+    E.compile_part(i)
+"""
+
+_RUN_LOOP = """
+import json
+from slidingarm import _engine as E, PAPER_Q0, FTSMC, PaperReference, PlanarArm, simulate
+before = E.loop_cached()
+arm = PlanarArm.paper()
+law = FTSMC(arm, alpha=5.0, beta=5.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
+simulate(arm, law, PaperReference(), q0=PAPER_Q0, t_final=0.01, dt=1e-3)
+stats = {d.py_func.__name__: [sum(d.stats.cache_hits.values()), sum(d.stats.cache_misses.values())]
+         for d, _ in E.LOOP_PARTS}
+stats["run_one"] = [sum(E.run_one.stats.cache_hits.values()),
+                    sum(E.run_one.stats.cache_misses.values())]
+print(json.dumps({"before": before, "after": E.loop_cached(), "stats": stats}))
+"""
+
+
+def _python(code: str, cache: Path) -> str:
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    proc = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout
+
+
+@pytest.mark.slow  # two fresh processes compile the loop's parts, then the loop (about 10 s)
+def test_the_loop_loads_the_parts_another_process_compiled(tmp_path: Path) -> None:
+    _python(_COMPILE_PARTS, tmp_path)
+    out = json.loads(_python(_RUN_LOOP, tmp_path).strip().splitlines()[-1])
+    assert out["before"] is False  # the parts alone are not the loop
+    assert out["after"] is True
+    # the loop was compiled here, and each part it called was loaded, none compiled again
+    assert out["stats"].pop("run_one") == [0, 1]
+    assert out["stats"] == {"sliding_mode_into": [1, 0], "rk4_step": [1, 0]}
