@@ -13,7 +13,7 @@ In one run, for 1 and 2 threads and each batch size ``B``, the paper's arm (3 jo
   the reference of issue 12,
 
 and the ratios block / scalar and block / reference; then a UR5 figure (arm-steps per second
-of ``simulate_batch`` on 64 UR5 runs, metrics mode, and which loop it took). Before timing, the reference is checked to
+of ``simulate_batch`` on 64 UR5 runs, metrics mode, on the block path and on the per-run loop). Before timing, the reference is checked to
 run the same loop as ours: its trajectory of the paper's run within 1e-9 rad of both our
 paths', and its MSE of 16 perturbed runs within 1e-6 (relative) of our ``mse`` metric. Each
 figure is the median of ``--repeats`` timings that take turns (block, scalar, reference), so
@@ -161,30 +161,30 @@ UR5_STEPS = 2000
 UR5_RUNS = 64
 
 
-def ur5_rate(threads: int, repeats: int) -> tuple[float, str]:
-    """Arm-steps per second of ``simulate_batch`` on the UR5 (metrics mode) and the path it
-    took: the block path has no serial-arm kind yet, so ``simulate_batch`` runs the per-run
-    loop (``_block_eligible_runs`` says why)."""
+def ur5_rate(threads: int, repeats: int) -> dict[str, float]:
+    """Arm-steps per second of ``simulate_batch`` on the UR5 (metrics mode) on the block path
+    (the serial kind's lanes, :func:`slidingarm._block._rk4_serial`) and on the per-run loop,
+    timings taking turns."""
     arm = sa.robots.load("ur5")
     ctrl = sa.FTSMC(arm, alpha=2.0, beta=2.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
     q0 = np.zeros(arm.n) + np.random.default_rng(1).normal(0.0, 0.01, (UR5_RUNS, arm.n))
     ref = sa.QuinticReference(np.zeros(arm.n), np.full(arm.n, 0.5), duration=UR5_T)
-    try:
-        S._block_eligible_runs([arm], [ctrl], UR5_RUNS, need=True)
-        path = "block"
-    except ValueError as exc:
-        path = f"per-run loop ({str(exc).split(': ', 2)[-1]})"
 
-    def once() -> float:
+    def once(path: str) -> float:
         t0 = time.perf_counter()
         out = sa.simulate_batch(arm, ctrl, ref, q0=q0, t_final=UR5_T, dt=UR5_DT,
-                                record="metrics", threads=threads)  # fmt: skip
+                                record="metrics", threads=threads, block=path == "block")  # fmt: skip
         dt = time.perf_counter() - t0
         assert np.all(out.ok)
         return dt
 
-    once()
-    return UR5_RUNS * UR5_STEPS / float(np.median([once() for _ in range(repeats)])), path
+    once("block")
+    once("scalar")
+    times: dict[str, list[float]] = {"block": [], "scalar": []}
+    for _ in range(repeats):
+        for path in times:
+            times[path].append(once(path))
+    return {path: UR5_RUNS * UR5_STEPS / float(np.median(v)) for path, v in times.items()}
 
 
 def main() -> None:
@@ -238,9 +238,10 @@ def main() -> None:
     finally:
         numba.config.NUMBA_NUM_THREADS = saved
     for threads in args.threads:
-        rate, path = ur5_rate(threads, repeats)
-        print(f"UR5 (6 joints, FTSMC tanh), {threads} thread(s), B = {UR5_RUNS}: "
-              f"{rate:.3g} arm-steps/s on the {path}")  # fmt: skip
+        ur5 = ur5_rate(threads, repeats)
+        print(f"UR5 (6 joints, FTSMC tanh), {threads} thread(s), B = {UR5_RUNS}: block "
+              f"{ur5['block']:.3g}, per-run loop {ur5['scalar']:.3g} arm-steps/s "
+              f"({ur5['block'] / ur5['scalar']:.2f}x)")  # fmt: skip
     print(f"load average at end: {os.getloadavg()}")
     for threads, b, rate in rows:
         if threads == 2 and b == 10000:

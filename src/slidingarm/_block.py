@@ -2,7 +2,9 @@
 
 :func:`run_block` is :func:`slidingarm._engine.run_one` for :data:`W` runs at once, for the
 planar kind (plant and nominal model) and the built-in sliding-mode law, ``law = "model"``
-and the paper's ``law = "paper"`` (:func:`_paper_law`): every surface, switching function and
+and the paper's ``law = "paper"`` (:func:`_paper_law`), and for the serial kind with
+``law = "model"`` (:func:`_rk4_serial`, :func:`_serial_torque`; the kind and the law are the
+type of a tag argument, :data:`MODEL_TAG`): every surface, switching function and
 reaching law of
 :func:`slidingarm.control._kernels.control_into`, every velocity estimator, the held and added
 measurement arrays, torque disturbances, torque limits and ``substeps``. The law's codes, the
@@ -26,15 +28,17 @@ joint's iteration leaves for the next stays in registers instead of the workspac
 loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those calls
 have loops of their own and the arithmetic around them still vectorises.
 
-**Results.** Each lane computes exactly what :func:`~slidingarm._engine.run_one` computes for
-its run: the same floating-point operations in the same order, with the same elementary
+**Results.** For the planar kind, each lane computes exactly what
+:func:`~slidingarm._engine.run_one` computes for its run: the same floating-point operations in the same order, with the same elementary
 functions, and no ``fastmath`` flag on any operation: lanes are independent, so vectorising
 needs no reassociation, and without ``contract`` no multiply-add is fused where the scalar loop
 does not fuse one. A run's trajectory is therefore bit-identical to the scalar path's,
 whatever lane or block it lands in and whatever the thread count: no value crosses lanes. The
 only block-wide decisions are whether *any* lane needs something (the direct sines and cosines
 of a large RK4 stage step, a measurement that differed from the state), and a lane that does
-not need it discards it by a select, so it computes what it would alone.
+not need it discards it by a select, so it computes what it would alone. For the serial kind
+a lane agrees with the per-run loop to rounding, not bit for bit (see the serial section
+below); it is still independent of the other lanes, the block size and the thread count.
 
 **Status.** A lane whose torque, sliding variable or state stops being finite, or whose speed
 exceeds ``qd_limit``, records ``[code, sample, joint]`` as ``run_one`` would, stops writing
@@ -268,12 +272,38 @@ _A_PWE = (_MACC + M_PWE) * W
 _A_PTAU = (_MACC + M_PTAU) * W
 
 
+# the serial kind's rows (:func:`_serial_torque`, :func:`_rk4_serial`), after the mass matrix
+# and its factor: lane scalars ws[_serial_base(n) + _SL_X + ln], then joint i's rows at
+# ws[_serial_base(n) + _SL_END + i SJS + _SX + ln]
+_SL_W = 0 * W  # 3: the body's angular velocity (RNEA), then 3: its linear velocity
+_SL_B = 6 * W  # 3 + 3: its acceleration (RNEA)
+_SL_F = 12 * W  # 6: a force carried to the parent (RNEA's backward pass, CRBA)
+_SL_END = 18 * W
+_SP = 0 * W  # 26: the plant's table (slidingarm.models._spatial, joint-aligned)
+_SM = 26 * W  # 26: the nominal model's table
+_SR = 52 * W  # 9: R_pc
+_SO = 61 * W  # 3: r, the body's origin in its parent
+_SF = 64 * W  # 6: the body's force (RNEA)
+_SC = 70 * W  # 10: its composite inertia (CRBA)
+_SH = 80 * W  # the bias h (forward dynamics)
+#: Stride of one joint's serial rows.
+SJS = 81 * W
+#: Rows of a serial kind's table that the block copies (the physical ones).
+SERIAL_TABLE_ROWS = 26
+
+
+@njit(inline="always", **_OPT)
+def _serial_base(n: int) -> int:
+    return J0 + n * JS + 2 * n * n * W
+
+
 @njit(inline="always", **_OPT)
 def workspace_size(n: int) -> int:
     """Length of the flat workspace of a block of ``n``-joint runs: the lane scalars, the
-    joints' rows, then the paper's law's mass matrix and its Cholesky factor (``n x n`` rows of
-    ``W`` lanes each, :func:`_paper_law`)."""
-    return J0 + n * JS + 2 * n * n * W
+    joints' rows, the mass matrix and its Cholesky factor (``n x n`` rows of ``W`` lanes each:
+    the paper's law's, :func:`_paper_law`, or a serial plant's, :func:`_serial_forward`), then
+    the serial kind's lane scalars and joint rows."""
+    return _serial_base(n) + _SL_END + n * SJS
 
 
 @njit(inline="always", **_OPT)
@@ -646,6 +676,12 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
     _stage(ws, n, 1.0, h, False, _K2, _K1)
     _stage_angles(ws, n)
     _aba(ws, n)
+    _rk4_finish(ws, n, h)
+
+
+@njit(inline="always", **_OPT)
+def _rk4_finish(ws: np.ndarray, n: int, h: float) -> None:
+    """RK4's update from the stages' accelerations ``_K0``, ``_K1``, ``_K2``, ``_KX``."""
     for i in range(n):
         o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
@@ -741,28 +777,91 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
                 ws[o + _PR + ln] = r
                 ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
                 ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
-    _angles_law(ws, n)
     _torque(ws, n, law_tag)
 
 
-#: The law of a block, as the *type* of an empty array passed to :func:`run_block`: the model
-#: law's kernel then never types (nor compiles) the paper's law, which only the errata use.
+#: The law and the arm kind of a block, as the *type* of an empty array passed to
+#: :func:`run_block`: a kernel then never types (nor compiles) what its blocks do not run (the
+#: paper's law, which only the errata use; the other kind's dynamics).
 MODEL_TAG = np.empty(0, dtype=np.float64)
 PAPER_TAG = np.empty(0, dtype=np.int8)
+SERIAL_TAG = np.empty(0, dtype=np.float32)
+
+
+def _tag_kind(law_tag: object) -> str:
+    """``"paper"``, ``"serial"`` or ``"model"`` (planar), by the numba type of a tag."""
+    if isinstance(law_tag, numba_types.Array) and law_tag.dtype == numba_types.int8:
+        return "paper"
+    if isinstance(law_tag, numba_types.Array) and law_tag.dtype == numba_types.float32:
+        return "serial"
+    return "model"
+
+
+@njit(forceinline=True, **_OPT)
+def _planar_torque(ws: np.ndarray, n: int) -> None:
+    _angles_law(ws, n)
+    _rnea(ws, n)
+
+
+@njit(forceinline=True, **_OPT)
+def _paper_torque(ws: np.ndarray, n: int) -> None:
+    _angles_law(ws, n)
+    _paper_law(ws, n)
 
 
 def _torque(ws: np.ndarray, n: int, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
-    """The torque of the law that ``law_tag``'s type names (:data:`MODEL_TAG`: the nominal
-    RNEA, :func:`_rnea`; :data:`PAPER_TAG`: :func:`_paper_law`), chosen when numba types it."""
+    """The torque of the law that ``law_tag``'s type names (:data:`MODEL_TAG`: the planar
+    nominal RNEA, :func:`_rnea`; :data:`PAPER_TAG`: :func:`_paper_law`; :data:`SERIAL_TAG`:
+    the serial nominal RNEA, :func:`_serial_torque`), chosen when numba types it; the planar
+    ones leave the angles of the measurement in ``_LC``, ``_LS``."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_torque, jit_options={"nogil": True, "error_model": "numpy"})
 def _torque_typed(ws, n, law_tag):  # type: ignore[no-untyped-def]  # numba compares the names
     # and annotations of this signature with the implementation's
-    if isinstance(law_tag, numba_types.Array) and law_tag.dtype == numba_types.int8:
-        return lambda ws, n, law_tag: _paper_law(ws, n)
-    return lambda ws, n, law_tag: _rnea(ws, n)
+    kind = _tag_kind(law_tag)
+    if kind == "paper":
+        return lambda ws, n, law_tag: _paper_torque(ws, n)
+    if kind == "serial":
+        return lambda ws, n, law_tag: _serial_torque(ws, n)
+    return lambda ws, n, law_tag: _planar_torque(ws, n)
+
+
+def _plant_step(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
+    """One RK4 step of the plants of the kind ``law_tag``'s type names: :func:`_rk4`
+    (planar; ``known``: the law left the angles of the state) or :func:`_rk4_serial`."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_plant_step, jit_options={"nogil": True, "error_model": "numpy"})
+def _plant_step_typed(ws, joints, h, known, law_tag):  # type: ignore[no-untyped-def]
+    if _tag_kind(law_tag) == "serial":
+        return lambda ws, joints, h, known, law_tag: _rk4_serial(ws, joints, h)
+    return lambda ws, joints, h, known, law_tag: _rk4(ws, len(joints), h, known)
+
+
+def _load_tables(ws: np.ndarray, n: int, pp: np.ndarray, mp: np.ndarray, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
+    """A serial block's plant and nominal tables (``(rows, n, W)``) into its serial rows."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_load_tables, jit_options={"nogil": True, "error_model": "numpy"})
+def _load_tables_typed(ws, n, pp, mp, law_tag):  # type: ignore[no-untyped-def]
+    if _tag_kind(law_tag) == "serial":
+        return lambda ws, n, pp, mp, law_tag: _load_serial(ws, n, pp, mp)
+    return lambda ws, n, pp, mp, law_tag: None
+
+
+@njit(**_OPT)
+def _load_serial(ws: np.ndarray, n: int, pp: np.ndarray, mp: np.ndarray) -> None:
+    sb = (_serial_base(n) + _SL_END) & _NONNEG
+    for j in range(n):
+        so = (sb + j * SJS) & _NONNEG
+        for r in range(SERIAL_TABLE_ROWS):
+            for ln in range(W):
+                ws[so + _SP + r * W + ln] = pp[r, j, ln]
+                ws[so + _SM + r * W + ln] = mp[r, j, ln]
 
 
 @njit(**_OPT)
@@ -795,6 +894,461 @@ def _cholesky_solve(ws: np.ndarray, n: int, lb: int, rhs: int, out: int) -> None
         ii = (lb + (i * n + i) * W) & _NONNEG
         for ln in range(W):
             ws[oi + out + ln] = ws[_L_T0 + ln] / ws[ii + ln]
+
+
+# ------------------------------------------------------------------ the serial kind, per lane
+# The serial kind's dynamics (slidingarm.models._spatial) per lane, on its joint-aligned table
+# (each joint's axis is its body's e_z): each lane computes the same formulas as the scalar
+# kernels, but the plant's forward dynamics is M(q)^{-1} (tau - h(q, qd)) by the
+# composite-rigid-body algorithm, the recursive Newton-Euler algorithm and a Cholesky solve
+# (O(n^2), all of it vector code across lanes), where the scalar path uses the
+# articulated-body algorithm (O(n)); the scalar kernels also fuse products and sums
+# (``fastmath={"contract"}``), which this module never does. So a serial run on the block path
+# agrees with the per-run loop to rounding, not bit for bit (tests/engine/test_block.py states
+# the tolerance). Per joint the choice between a revolute and a prismatic joint is a select
+# on the table's type row, the same for every lane of a block in practice.
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_kinematics(ws: np.ndarray, n: int, qoff: int, tab: int) -> None:
+    """Each body's ``R_pc`` (``_SR``) and origin ``r`` (``_SO``) in its parent at the
+    positions in joint rows ``qoff``, from the table at serial rows ``tab``
+    (:func:`slidingarm.models._spatial._place`): a revolute joint's ``R_pc = R_0 Rot(e_z,
+    q)``, ``r = p_0``; a prismatic one's ``R_pc = R_0``, ``r = p_0 + q R_0 e_z``."""
+    sb = (_serial_base(n) + _SL_END) & _NONNEG
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        so = (sb + i * SJS) & _NONNEG
+        for ln in range(W):
+            qv = ws[o + qoff + ln]
+            sv, cv = sincos(qv)
+            rev = ws[so + tab + 15 * W + ln] == 0.0
+            c = cv if rev else 1.0
+            sn = sv if rev else 0.0
+            slide = 0.0 if rev else qv
+            for row in range(3):
+                b0 = ws[so + tab + (3 * row) * W + ln]
+                b1 = ws[so + tab + (3 * row + 1) * W + ln]
+                b2 = ws[so + tab + (3 * row + 2) * W + ln]
+                ws[so + _SR + (3 * row) * W + ln] = b0 * c + b1 * sn
+                ws[so + _SR + (3 * row + 1) * W + ln] = b1 * c - b0 * sn
+                ws[so + _SR + (3 * row + 2) * W + ln] = b2
+                ws[so + _SO + row * W + ln] = ws[so + tab + (9 + row) * W + ln] + slide * b2
+
+
+@njit(inline="always", **_OPT)
+def _motion_in(ws: np.ndarray, so: int, ln: int, wx: float, wy: float, wz: float, vx: float,
+               vy: float, vz: float) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """A motion of the parent carried into the body at serial rows ``so``:
+    ``(E ω, E (v + ω × r))`` with ``E = R_pc^T`` (:func:`slidingarm.models._spatial._motion_in`)."""
+    rx = ws[so + _SO + ln]
+    ry = ws[so + _SO + W + ln]
+    rz = ws[so + _SO + 2 * W + ln]
+    ux = vx + wy * rz - wz * ry
+    uy = vy + wz * rx - wx * rz
+    uz = vz + wx * ry - wy * rx
+    r00 = ws[so + _SR + ln]
+    r01 = ws[so + _SR + W + ln]
+    r02 = ws[so + _SR + 2 * W + ln]
+    r10 = ws[so + _SR + 3 * W + ln]
+    r11 = ws[so + _SR + 4 * W + ln]
+    r12 = ws[so + _SR + 5 * W + ln]
+    r20 = ws[so + _SR + 6 * W + ln]
+    r21 = ws[so + _SR + 7 * W + ln]
+    r22 = ws[so + _SR + 8 * W + ln]
+    return (
+        r00 * wx + r10 * wy + r20 * wz,
+        r01 * wx + r11 * wy + r21 * wz,
+        r02 * wx + r12 * wy + r22 * wz,
+        r00 * ux + r10 * uy + r20 * uz,
+        r01 * ux + r11 * uy + r21 * uz,
+        r02 * ux + r12 * uy + r22 * uz,
+    )
+
+
+@njit(inline="always", **_OPT)
+def _force_out(ws: np.ndarray, so: int, ln: int, nx: float, ny: float, nz: float, fx: float,
+               fy: float, fz: float) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """A force on the body at serial rows ``so`` carried to its parent: ``(R n + r × R f, R
+    f)`` (:func:`slidingarm.models._spatial._force_out`)."""
+    r00 = ws[so + _SR + ln]
+    r01 = ws[so + _SR + W + ln]
+    r02 = ws[so + _SR + 2 * W + ln]
+    r10 = ws[so + _SR + 3 * W + ln]
+    r11 = ws[so + _SR + 4 * W + ln]
+    r12 = ws[so + _SR + 5 * W + ln]
+    r20 = ws[so + _SR + 6 * W + ln]
+    r21 = ws[so + _SR + 7 * W + ln]
+    r22 = ws[so + _SR + 8 * W + ln]
+    gx = r00 * fx + r01 * fy + r02 * fz
+    gy = r10 * fx + r11 * fy + r12 * fz
+    gz = r20 * fx + r21 * fy + r22 * fz
+    rx = ws[so + _SO + ln]
+    ry = ws[so + _SO + W + ln]
+    rz = ws[so + _SO + 2 * W + ln]
+    return (
+        r00 * nx + r01 * ny + r02 * nz + ry * gz - rz * gy,
+        r10 * nx + r11 * ny + r12 * nz + rz * gx - rx * gz,
+        r20 * nx + r21 * ny + r22 * nz + rx * gy - ry * gx,
+        gx,
+        gy,
+        gz,
+    )
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_rnea(ws: np.ndarray, n: int, tab: int, qdoff: int, accoff: int, with_acc: bool,
+                 gl: int, out: int) -> None:  # fmt: skip
+    """Recursive Newton-Euler per lane with the kinematics in ``_SR``, ``_SO``
+    (:func:`slidingarm.models._spatial.rnea_known`): :math:`\\tau = M(q) \\ddot q + h(q,
+    \\dot q)` with :math:`\\dot q` in joint rows ``qdoff`` and :math:`\\ddot q` in ``accoff``
+    (``with_acc``; else :math:`\\ddot q = 0`: the bias ``h``), gravity ``ws[gl + ln]``, the
+    table at serial rows ``tab``; into joint rows ``out`` (an offset from a joint's serial
+    rows if ``out < 0``: ``-out``)."""
+    base = _serial_base(n) & _NONNEG
+    sb = (base + _SL_END) & _NONNEG
+    for ln in range(W):
+        for r in range(6):
+            ws[base + _SL_W + r * W + ln] = 0.0
+            ws[base + _SL_B + r * W + ln] = 0.0
+        ws[base + _SL_B + 5 * W + ln] = ws[gl + ln]
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        so = (sb + i * SJS) & _NONNEG
+        for ln in range(W):
+            wx, wy, wz, vx, vy, vz = _motion_in(
+                ws, so, ln, ws[base + _SL_W + ln], ws[base + _SL_W + W + ln],
+                ws[base + _SL_W + 2 * W + ln], ws[base + _SL_W + 3 * W + ln],
+                ws[base + _SL_W + 4 * W + ln], ws[base + _SL_W + 5 * W + ln],
+            )  # fmt: skip
+            bx, by, bz, cx, cy, cz = _motion_in(
+                ws, so, ln, ws[base + _SL_B + ln], ws[base + _SL_B + W + ln],
+                ws[base + _SL_B + 2 * W + ln], ws[base + _SL_B + 3 * W + ln],
+                ws[base + _SL_B + 4 * W + ln], ws[base + _SL_B + 5 * W + ln],
+            )  # fmt: skip
+            dq = ws[o + qdoff + ln]
+            ddq = ws[o + accoff + ln] if with_acc else 0.0
+            rev = ws[so + tab + 15 * W + ln] == 0.0
+            # S = (e_z, 0) or (0, e_z); (w, v) x S dq = (w x e_z dq, v x e_z dq) or (0, w x e_z dq)
+            wz = wz + dq if rev else wz
+            vz = vz if rev else vz + dq
+            bx = bx + wy * dq if rev else bx
+            by = by - wx * dq if rev else by
+            bz = bz + ddq if rev else bz
+            cx = cx + vy * dq if rev else cx + wy * dq
+            cy = cy - vx * dq if rev else cy - wx * dq
+            cz = cz if rev else cz + ddq
+            m = ws[so + tab + 16 * W + ln]
+            hx = ws[so + tab + 17 * W + ln]
+            hy = ws[so + tab + 18 * W + ln]
+            hz = ws[so + tab + 19 * W + ln]
+            ixx = ws[so + tab + 20 * W + ln]
+            iyy = ws[so + tab + 21 * W + ln]
+            izz = ws[so + tab + 22 * W + ln]
+            ixy = ws[so + tab + 23 * W + ln]
+            ixz = ws[so + tab + 24 * W + ln]
+            iyz = ws[so + tab + 25 * W + ln]
+            # the rigid inertia times (w, v) and times (b, c): (I_o w + h x v, m v - h x w)
+            n1x = ixx * wx + ixy * wy + ixz * wz + hy * vz - hz * vy
+            n1y = ixy * wx + iyy * wy + iyz * wz + hz * vx - hx * vz
+            n1z = ixz * wx + iyz * wy + izz * wz + hx * vy - hy * vx
+            f1x = m * vx - (hy * wz - hz * wy)
+            f1y = m * vy - (hz * wx - hx * wz)
+            f1z = m * vz - (hx * wy - hy * wx)
+            n2x = ixx * bx + ixy * by + ixz * bz + hy * cz - hz * cy
+            n2y = ixy * bx + iyy * by + iyz * bz + hz * cx - hx * cz
+            n2z = ixz * bx + iyz * by + izz * bz + hx * cy - hy * cx
+            f2x = m * cx - (hy * bz - hz * by)
+            f2y = m * cy - (hz * bx - hx * bz)
+            f2z = m * cz - (hx * by - hy * bx)
+            ws[so + _SF + ln] = n2x + wy * n1z - wz * n1y + vy * f1z - vz * f1y
+            ws[so + _SF + W + ln] = n2y + wz * n1x - wx * n1z + vz * f1x - vx * f1z
+            ws[so + _SF + 2 * W + ln] = n2z + wx * n1y - wy * n1x + vx * f1y - vy * f1x
+            ws[so + _SF + 3 * W + ln] = f2x + wy * f1z - wz * f1y
+            ws[so + _SF + 4 * W + ln] = f2y + wz * f1x - wx * f1z
+            ws[so + _SF + 5 * W + ln] = f2z + wx * f1y - wy * f1x
+            ws[base + _SL_W + ln] = wx
+            ws[base + _SL_W + W + ln] = wy
+            ws[base + _SL_W + 2 * W + ln] = wz
+            ws[base + _SL_W + 3 * W + ln] = vx
+            ws[base + _SL_W + 4 * W + ln] = vy
+            ws[base + _SL_W + 5 * W + ln] = vz
+            ws[base + _SL_B + ln] = bx
+            ws[base + _SL_B + W + ln] = by
+            ws[base + _SL_B + 2 * W + ln] = bz
+            ws[base + _SL_B + 3 * W + ln] = cx
+            ws[base + _SL_B + 4 * W + ln] = cy
+            ws[base + _SL_B + 5 * W + ln] = cz
+    for ii in range(n):
+        i = n - 1 - ii
+        o = (J0 + i * JS) & _NONNEG
+        so = (sb + i * SJS) & _NONNEG
+        at = (o + out) & _NONNEG
+        for ln in range(W):
+            rev = ws[so + tab + 15 * W + ln] == 0.0
+            ws[at + ln] = ws[so + _SF + 2 * W + ln] if rev else ws[so + _SF + 5 * W + ln]
+        if i > 0:
+            sp = (so - SJS) & _NONNEG
+            for ln in range(W):
+                nx, ny, nz, fx, fy, fz = _force_out(
+                    ws, so, ln, ws[so + _SF + ln], ws[so + _SF + W + ln],
+                    ws[so + _SF + 2 * W + ln], ws[so + _SF + 3 * W + ln],
+                    ws[so + _SF + 4 * W + ln], ws[so + _SF + 5 * W + ln],
+                )  # fmt: skip
+                ws[sp + _SF + ln] += nx
+                ws[sp + _SF + W + ln] += ny
+                ws[sp + _SF + 2 * W + ln] += nz
+                ws[sp + _SF + 3 * W + ln] += fx
+                ws[sp + _SF + 4 * W + ln] += fy
+                ws[sp + _SF + 5 * W + ln] += fz
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_crba(ws: np.ndarray, n: int, tab: int, mb: int) -> None:
+    """Composite-rigid-body algorithm per lane with the kinematics in ``_SR``, ``_SO``
+    (:func:`slidingarm.models._spatial.crba_known`): ``M`` into the ``n x n`` rows at ``mb``
+    (row ``a``, column ``b`` at ``mb + (a n + b) W``)."""
+    base = _serial_base(n) & _NONNEG
+    sb = (base + _SL_END) & _NONNEG
+    for i in range(n):
+        so = (sb + i * SJS) & _NONNEG
+        for k in range(10):
+            for ln in range(W):
+                ws[so + _SC + k * W + ln] = ws[so + tab + (16 + k) * W + ln]
+    for ii in range(n - 1):
+        i = n - 1 - ii
+        so = (sb + i * SJS) & _NONNEG
+        sp = (so - SJS) & _NONNEG
+        for ln in range(W):
+            m = ws[so + _SC + ln]
+            hx = ws[so + _SC + W + ln]
+            hy = ws[so + _SC + 2 * W + ln]
+            hz = ws[so + _SC + 3 * W + ln]
+            jxx = ws[so + _SC + 4 * W + ln]
+            jyy = ws[so + _SC + 5 * W + ln]
+            jzz = ws[so + _SC + 6 * W + ln]
+            jxy = ws[so + _SC + 7 * W + ln]
+            jxz = ws[so + _SC + 8 * W + ln]
+            jyz = ws[so + _SC + 9 * W + ln]
+            e00 = ws[so + _SR + ln]
+            e01 = ws[so + _SR + W + ln]
+            e02 = ws[so + _SR + 2 * W + ln]
+            e10 = ws[so + _SR + 3 * W + ln]
+            e11 = ws[so + _SR + 4 * W + ln]
+            e12 = ws[so + _SR + 5 * W + ln]
+            e20 = ws[so + _SR + 6 * W + ln]
+            e21 = ws[so + _SR + 7 * W + ln]
+            e22 = ws[so + _SR + 8 * W + ln]
+            ox = ws[so + _SO + ln]
+            oy = ws[so + _SO + W + ln]
+            oz = ws[so + _SO + 2 * W + ln]
+            # slidingarm.models._spatial._carry_inertia
+            gx = e00 * hx + e01 * hy + e02 * hz
+            gy = e10 * hx + e11 * hy + e12 * hz
+            gz = e20 * hx + e21 * hy + e22 * hz
+            t00 = e00 * jxx + e01 * jxy + e02 * jxz
+            t01 = e00 * jxy + e01 * jyy + e02 * jyz
+            t02 = e00 * jxz + e01 * jyz + e02 * jzz
+            t10 = e10 * jxx + e11 * jxy + e12 * jxz
+            t11 = e10 * jxy + e11 * jyy + e12 * jyz
+            t12 = e10 * jxz + e11 * jyz + e12 * jzz
+            t20 = e20 * jxx + e21 * jxy + e22 * jxz
+            t21 = e20 * jxy + e21 * jyy + e22 * jyz
+            t22 = e20 * jxz + e21 * jyz + e22 * jzz
+            hm = 0.5 * m
+            kx = gx + hm * ox
+            ky = gy + hm * oy
+            kz = gz + hm * oz
+            pkx = ox * kx
+            pky = oy * ky
+            pkz = oz * kz
+            ws[sp + _SC + ln] += m
+            ws[sp + _SC + W + ln] += gx + m * ox
+            ws[sp + _SC + 2 * W + ln] += gy + m * oy
+            ws[sp + _SC + 3 * W + ln] += gz + m * oz
+            ws[sp + _SC + 4 * W + ln] += t00 * e00 + t01 * e01 + t02 * e02 + 2.0 * (pky + pkz)
+            ws[sp + _SC + 5 * W + ln] += t10 * e10 + t11 * e11 + t12 * e12 + 2.0 * (pkx + pkz)
+            ws[sp + _SC + 6 * W + ln] += t20 * e20 + t21 * e21 + t22 * e22 + 2.0 * (pkx + pky)
+            ws[sp + _SC + 7 * W + ln] += t00 * e10 + t01 * e11 + t02 * e12 - (ox * ky + kx * oy)
+            ws[sp + _SC + 8 * W + ln] += t00 * e20 + t01 * e21 + t02 * e22 - (ox * kz + kx * oz)
+            ws[sp + _SC + 9 * W + ln] += t10 * e20 + t11 * e21 + t12 * e22 - (oy * kz + ky * oz)
+    for i in range(n):
+        so = (sb + i * SJS) & _NONNEG
+        ii_at = (mb + (i * n + i) * W) & _NONNEG
+        for ln in range(W):
+            ax = ws[so + tab + 12 * W + ln]
+            ay = ws[so + tab + 13 * W + ln]
+            az = ws[so + tab + 14 * W + ln]
+            m = ws[so + _SC + ln]
+            hx = ws[so + _SC + W + ln]
+            hy = ws[so + _SC + 2 * W + ln]
+            hz = ws[so + _SC + 3 * W + ln]
+            rev = ws[so + tab + 15 * W + ln] == 0.0
+            # revolute: I^c (a, 0) = (I_o a, -h x a); prismatic: I^c (0, a) = (h x a, m a)
+            hxa_x = hy * az - hz * ay
+            hxa_y = hz * ax - hx * az
+            hxa_z = hx * ay - hy * ax
+            ioa_x = ws[so + _SC + 4 * W + ln] * ax + ws[so + _SC + 7 * W + ln] * ay + ws[so + _SC + 8 * W + ln] * az
+            ioa_y = ws[so + _SC + 7 * W + ln] * ax + ws[so + _SC + 5 * W + ln] * ay + ws[so + _SC + 9 * W + ln] * az
+            ioa_z = ws[so + _SC + 8 * W + ln] * ax + ws[so + _SC + 9 * W + ln] * ay + ws[so + _SC + 6 * W + ln] * az
+            nx = ioa_x if rev else hxa_x
+            ny = ioa_y if rev else hxa_y
+            nz = ioa_z if rev else hxa_z
+            fx = -hxa_x if rev else m * ax
+            fy = -hxa_y if rev else m * ay
+            fz = -hxa_z if rev else m * az
+            d_rev = ax * nx + ay * ny + az * nz
+            d_pri = ax * fx + ay * fy + az * fz
+            ws[ii_at + ln] = d_rev if rev else d_pri
+            ws[base + _SL_F + ln] = nx
+            ws[base + _SL_F + W + ln] = ny
+            ws[base + _SL_F + 2 * W + ln] = nz
+            ws[base + _SL_F + 3 * W + ln] = fx
+            ws[base + _SL_F + 4 * W + ln] = fy
+            ws[base + _SL_F + 5 * W + ln] = fz
+        for jj in range(i):
+            j = i - jj
+            sj = (sb + j * SJS) & _NONNEG
+            sk = (sj - SJS) & _NONNEG
+            k = j - 1
+            ki_at = (mb + (k * n + i) * W) & _NONNEG
+            ik_at = (mb + (i * n + k) * W) & _NONNEG
+            for ln in range(W):
+                nx, ny, nz, fx, fy, fz = _force_out(
+                    ws, sj, ln, ws[base + _SL_F + ln], ws[base + _SL_F + W + ln],
+                    ws[base + _SL_F + 2 * W + ln], ws[base + _SL_F + 3 * W + ln],
+                    ws[base + _SL_F + 4 * W + ln], ws[base + _SL_F + 5 * W + ln],
+                )  # fmt: skip
+                bx = ws[sk + tab + 12 * W + ln]
+                by = ws[sk + tab + 13 * W + ln]
+                bz = ws[sk + tab + 14 * W + ln]
+                rev = ws[sk + tab + 15 * W + ln] == 0.0
+                v_rev = bx * nx + by * ny + bz * nz
+                v_pri = bx * fx + by * fy + bz * fz
+                v = v_rev if rev else v_pri
+                ws[ki_at + ln] = v
+                ws[ik_at + ln] = v
+                ws[base + _SL_F + ln] = nx
+                ws[base + _SL_F + W + ln] = ny
+                ws[base + _SL_F + 2 * W + ln] = nz
+                ws[base + _SL_F + 3 * W + ln] = fx
+                ws[base + _SL_F + 4 * W + ln] = fy
+                ws[base + _SL_F + 5 * W + ln] = fz
+
+
+def _serial_solve_source(n: int) -> str:
+    """Source of the serial plant's solve for ``n`` joints, :math:`M x = b` per lane with
+    ``M`` at :func:`_serial_forward`'s rows, ``b`` in joint rows ``_PRHS`` and ``x`` into
+    ``_KX``: the Cholesky factorisation and substitutions of
+    :func:`slidingarm.models._kernels.cholesky_solve_into`, in its order, written out for
+    each entry (a lane loop each, at constant offsets). Written as loops over the entries,
+    LLVM did not unroll them (too large once nested) and the whole solve stayed scalar per
+    lane (measured: no vector instruction in it); written out, each lane loop is vector code.
+    A lane with a pivot that is not positive clears ``_L_OK`` and computes on (its run is
+    reported singular)."""
+    mb = J0 + n * JS
+    lb = mb + n * n * W
+    t0 = _L_T0
+
+    def m_at(i: int, j: int) -> int:
+        return mb + (i * n + j) * W
+
+    def l_at(i: int, j: int) -> int:
+        return lb + (i * n + j) * W
+
+    def row(i: int, r: int) -> int:
+        return J0 + i * JS + r
+
+    lines = ["def solve(ws, joints):"]
+    loop = f"    for ln in range({W}):"
+    for i in range(n):
+        for j in range(i + 1):
+            lines += [loop, f"        ws[{t0} + ln] = ws[{m_at(i, j)} + ln]"]
+            for k in range(j):
+                lines += [loop, f"        ws[{t0} + ln] -= ws[{l_at(i, k)} + ln] * ws[{l_at(j, k)} + ln]"]
+            if i == j:
+                lines += [
+                    loop,
+                    f"        piv = ws[{t0} + ln]",
+                    f"        ok = ws[{_L_OK} + ln]",
+                    f"        ws[{_L_OK} + ln] = ok if piv > 0.0 else 0.0",
+                    f"        ws[{l_at(i, i)} + ln] = math.sqrt(piv)",
+                ]
+            else:
+                lines += [loop, f"        ws[{l_at(i, j)} + ln] = ws[{t0} + ln] / ws[{l_at(j, j)} + ln]"]
+    for i in range(n):
+        lines += [loop, f"        ws[{t0} + ln] = ws[{row(i, _PRHS)} + ln]"]
+        for k in range(i):
+            lines += [loop, f"        ws[{t0} + ln] -= ws[{l_at(i, k)} + ln] * ws[{row(k, _KX)} + ln]"]
+        lines += [loop, f"        ws[{row(i, _KX)} + ln] = ws[{t0} + ln] / ws[{l_at(i, i)} + ln]"]
+    for i in range(n - 1, -1, -1):
+        lines += [loop, f"        ws[{t0} + ln] = ws[{row(i, _KX)} + ln]"]
+        for k in range(i + 1, n):
+            lines += [loop, f"        ws[{t0} + ln] -= ws[{l_at(k, i)} + ln] * ws[{row(k, _KX)} + ln]"]
+        lines += [loop, f"        ws[{row(i, _KX)} + ln] = ws[{t0} + ln] / ws[{l_at(i, i)} + ln]"]
+    return "\n".join(lines) + "\n"
+
+
+def _serial_solve(ws: np.ndarray, joints: tuple[int, ...]) -> None:  # pragma: no cover - typed
+    """:func:`_serial_solve_source` for ``len(joints)`` joints, generated when numba types it."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_serial_solve, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+def _serial_solve_typed(ws, joints):  # type: ignore[no-untyped-def]
+    n = len(joints)
+    scope: dict[str, object] = {"math": math}
+    exec(_serial_solve_source(n), scope)  # our own generated source
+    return scope["solve"]
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_forward(ws: np.ndarray, joints: tuple[int, ...]) -> None:
+    """The serial plant's acceleration per lane at the stage position ``_QT``, velocity
+    ``_VT`` and input ``_TAPP``: :math:`\\ddot q = M(q)^{-1} (\\tau - h(q, \\dot q))` into
+    ``_KX`` (a pivot that is not positive clears ``_L_OK``)."""
+    n = len(joints)
+    mb = (J0 + n * JS) & _NONNEG
+    _serial_kinematics(ws, n, _QT, _SP)
+    _serial_rnea(ws, n, _SP, _VT, _VT, False, _L_G, _PRHS)
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _PRHS + ln] = ws[o + _TAPP + ln] - ws[o + _PRHS + ln]
+    _serial_crba(ws, n, _SP, mb)
+    _serial_solve(ws, joints)
+
+
+@njit(forceinline=True, **_OPT)
+def _rk4_serial(ws: np.ndarray, joints: tuple[int, ...], h: float) -> None:
+    """One RK4 step of every lane of serial plants (the stages of :func:`_rk4`, each at
+    :func:`_serial_forward`)."""
+    n = len(joints)
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[o + _QT + ln] = ws[o + _Q + ln]
+            ws[o + _VT + ln] = ws[o + _QD + ln]
+    _serial_forward(ws, joints)
+    _keep_stage(ws, n, _K0)
+    _stage(ws, n, 0.5, h, True, _K0, _K0)
+    _serial_forward(ws, joints)
+    _keep_stage(ws, n, _K1)
+    _stage(ws, n, 0.5, h, False, _K1, _K0)
+    _serial_forward(ws, joints)
+    _keep_stage(ws, n, _K2)
+    _stage(ws, n, 1.0, h, False, _K2, _K1)
+    _serial_forward(ws, joints)
+    _rk4_finish(ws, n, h)
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_torque(ws: np.ndarray, n: int) -> None:
+    """The model law's torque for a serial nominal model per lane: the RNEA at the
+    measurement, :math:`\\tau = \\hat M(q_m)\\,a + \\hat h(q_m, \\dot q_m)` with :math:`a`
+    in ``_ACC``, into ``_TAU``."""
+    _serial_kinematics(ws, n, _QM, _SM)
+    _serial_rnea(ws, n, _SM, _QDM, _ACC, True, _L_MG, _TAU)
 
 
 @njit(**_OPT)
@@ -1174,6 +1728,7 @@ def run_block(
             ws[o + _EPSG + ln] = cf[CK.CF_EPS_E, j, ln] ** (cf[CK.CF_GAMMA, j, ln] - 1.0)
             ws[o + _A_S_LAST + ln] = -1.0
             ws[o + _A_E_LAST + ln] = -1.0
+    _load_tables(ws, n, pp, mp, law_tag)
     for k in range(nt):
         if has_add or has_hold or has_dist:
             for j in range(n):
@@ -1226,7 +1781,7 @@ def run_block(
         for ln in range(W):
             ws[_L_OK + ln] = 1.0
         for sub in range(substeps):
-            _rk4(ws, n, h, exact and sub == 0)
+            _plant_step(ws, joints, h, exact and sub == 0, law_tag)
         _check(ws, n, qd_limit)
         nalive = 0
         for ln in range(W):
@@ -1251,7 +1806,7 @@ def run_block(
                         acc[b, r, j] = ws[J0 + j * JS + (_MACC + r) * W + ln]
 
 
-_compiled: set[tuple[bool, int]] = set()
+_compiled: set[tuple[bool, bool, int]] = set()
 
 
 @contextmanager
@@ -1270,12 +1825,13 @@ def joints_tag(n: int) -> tuple[int, ...]:
     return (0,) * int(n)
 
 
-def compiled(paper: bool = False, n: int = 3) -> None:
-    """Compile (or load from the cache) :func:`run_block` for the model law, or with
-    ``paper`` for the paper's law (a signature of its own, compiled only when a batch needs
-    it), for arms of ``n`` joints, with the SLP vectoriser on: it is what turns the unrolled
-    lane loops into vector operations. Called by the batch before its first block of that
-    law and joint count; a no-op afterwards.
+def compiled(paper: bool = False, n: int = 3, *, serial: bool = False) -> None:
+    """Compile (or load from the cache) :func:`run_block` for the model law on planar arms,
+    with ``paper`` for the paper's law, with ``serial`` for the model law on serial arms (each
+    a signature of its own, compiled only when a batch needs it), for arms of ``n`` joints,
+    with the SLP vectoriser on: it is what turns the unrolled lane loops into vector
+    operations. Called by the batch before its first block of that law, kind and joint count;
+    a no-op afterwards.
 
     The joint count is part of the signature (:func:`joints_tag`), so that LLVM sees a
     constant ``n``: it unrolls the loops over joints and keeps in registers what a loop over a
@@ -1285,7 +1841,9 @@ def compiled(paper: bool = False, n: int = 3) -> None:
     if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
         raise ValueError(f"n must be an integer >= 1, got {n!r}")
     n = int(n)
-    if (paper, n) in _compiled:
+    if paper and serial:
+        raise ValueError("the paper's law has no serial-arm block kernel")
+    if (paper, serial, n) in _compiled:
         return
     from numba import types as T
 
@@ -1294,7 +1852,7 @@ def compiled(paper: bool = False, n: int = 3) -> None:
     a1 = T.Array(f8, 1, "C")
     a2 = T.Array(f8, 2, "C")
     a3 = T.Array(f8, 3, "C")
-    tag = T.Array(T.int8 if paper else f8, 1, "C")
+    tag = T.Array(T.int8 if paper else (T.float32 if serial else f8), 1, "C")
     sig = (
         T.Array(i8, 1, "C"), T.Array(i8, 1, "C"), a3, a1, a1, a3, a3, a1, a2, a2, a1, a2, a2,
         a2, a3, T.Array(T.boolean, 3, "C"), i8, a3, a3, a2, f8, i8, f8, i8, a3, a3, a3, a3,
@@ -1302,7 +1860,7 @@ def compiled(paper: bool = False, n: int = 3) -> None:
     )  # fmt: skip
     with _slp_vectorised():
         run_block.compile(sig)
-    _compiled.add((paper, n))
+    _compiled.add((paper, serial, n))
 
 
 def _entry_time(t: np.ndarray, last: np.ndarray, xk: np.ndarray, xk1: np.ndarray, delta: float) -> np.ndarray:

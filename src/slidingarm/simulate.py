@@ -366,11 +366,11 @@ def _block_eligible_runs(
     *,
     need: bool | None = None,
 ) -> bool:
-    """Whether every run is a compiled planar plant under a built-in sliding-mode law
-    (``law = "model"`` or ``"paper"``) with a planar nominal model (what
-    :func:`slidingarm._block.run_block` computes) and the batch has :data:`BLOCK_MIN_RUNS`
-    runs; with ``need=True`` (``simulate_batch(block=True)``) any batch size, and a
-    ``ValueError`` naming the reason instead of ``False``."""
+    """Whether every run is a compiled plant under a built-in sliding-mode law with a nominal
+    model of the plant's kind, all planar (``law = "model"`` or ``"paper"``) or all serial
+    (``law = "model"``): what :func:`slidingarm._block.run_block` computes; and the batch has
+    :data:`BLOCK_MIN_RUNS` runs. With ``need=True`` (``simulate_batch(block=True)``) any batch
+    size, and a ``ValueError`` naming the reason instead of ``False``."""
     from slidingarm.control import _dispatch as LD
     from slidingarm.models import _dispatch as MD
 
@@ -381,15 +381,25 @@ def _block_eligible_runs(
 
     if nb < BLOCK_MIN_RUNS and not need:
         return False
+    from slidingarm.control import _kernels as CK
+
+    kinds = {MD.KIND_PLANAR: "planar", MD.KIND_SERIAL: "serial"}
+    first = plants[0]
+    kind = None if isinstance(first, SteppedPlant) else first.handle.kind
     for p in plants:
-        if isinstance(p, SteppedPlant) or p.handle.kind != MD.KIND_PLANAR:
-            return no(f"the plant {type(p).__name__} is not a compiled planar arm")
+        if isinstance(p, SteppedPlant) or p.handle.kind not in kinds:
+            return no(f"the plant {type(p).__name__} is not a compiled planar or serial arm")
+        if p.handle.kind != kind:
+            return no("the plants are not all of one kind (planar or serial)")
+    assert kind is not None
     for c in ctrls:
         law = c.handle
         if law.code != LD.LAW_SLIDING_MODE:
             return no(f"controller {c.label} is not a built-in sliding-mode law")
-        if c.model.handle.kind != MD.KIND_PLANAR:
-            return no(f"controller {c.label}'s nominal model is not a planar arm")
+        if c.model.handle.kind != kind:
+            return no(f"controller {c.label}'s nominal model is not a {kinds[kind]} arm like the plants")
+        if kind == MD.KIND_SERIAL and int(law.params[CK.CI_LAW]) == CK.LAW_PAPER:
+            return no(f"controller {c.label} uses the paper's law, which is planar")
     return True
 
 
@@ -418,6 +428,7 @@ class _BlockStage:
     sensor: tuple[NDArray[np.int64], FloatArray, list[Sensor], NDArray[np.int64]]
     limit: tuple[FloatArray, NDArray[np.int64]]
     blocks: list[NDArray[np.int64]]
+    serial: bool  # the serial kind's arms (else planar)
 
 
 def _block_stage(plan: _Plan) -> _BlockStage:
@@ -426,6 +437,7 @@ def _block_stage(plan: _Plan) -> _BlockStage:
     is padded by repeating its last run)."""
     from slidingarm import _block as BK
     from slidingarm.control import _kernels as CK
+    from slidingarm.models import _dispatch as MD
 
     n, nb = plan.n, plan.nb
     plants, pidx = _distinct(plan.plants, nb)
@@ -456,9 +468,10 @@ def _block_stage(plan: _Plan) -> _BlockStage:
             part = runs[lo : lo + BK.W]
             part = part + [part[-1]] * (BK.W - len(part))
             blocks.append(np.array(part, dtype=np.int64))
+    serial = plants[0].handle.kind == MD.KIND_SERIAL
     return _BlockStage(
         (pp, pg, pidx), (codes, cf, mp, mg, cidx), (vcodes, vf, sensors, sidx), (tl, lidx),
-        blocks,
+        blocks, serial,
     )  # fmt: skip
 
 
@@ -548,6 +561,7 @@ def _run_blocks(
             mhold = None
         first = int(lanes[0])
         paper = codes[cidx[first], CK.CI_LAW] == CK.LAW_PAPER
+        tag = BK.PAPER_TAG if paper else (BK.SERIAL_TAG if stage.serial else BK.MODEL_TAG)
         BK.run_block(
             lanes, local, _lanes(pp, pidx[lanes]), pg[pidx[lanes]], codes[cidx[first]],
             _lanes(cf, cidx[lanes]), _lanes(mp, cidx[lanes]), mg[cidx[lanes]],
@@ -557,8 +571,7 @@ def _run_blocks(
             int(vcodes[sidx[first]]), _lanes(vf, sidx[lanes]),
             np.empty((0, n, BK.W)) if dist is None else dist, _lanes(tl, lidx[lanes]),
             plan.dt, plan.substeps, plan.qd_limit, stride if keep is not None else 0, *outs,
-            metrics, bands, acc, tau_trace, status, BK.PAPER_TAG if paper else BK.MODEL_TAG,
-            BK.joints_tag(n),
+            metrics, bands, acc, tau_trace, status, tag, BK.joints_tag(n),
         )  # fmt: skip
         if metrics:
             failed = status[runs, 0] != E.STATUS_OK
@@ -691,7 +704,7 @@ def memory_estimate(
     chunk's full traces and the temporaries of its metrics.
 
     On the block path (``block``; by default whenever :math:`B \\ge` :data:`BLOCK_MIN_RUNS`,
-    the runs of a planar arm under a built-in law) the per-thread term is instead
+    the runs of planar or serial arms under a built-in law) the per-thread term is instead
     :math:`8\\,P\\,T n \\cdot 68`: a block's sensor and disturbance arrays for its eight lanes,
     their per-run temporaries, and its torque traces with the temporaries of their
     ``hf_power_share`` (measured peaks: 12 to 59 such :math:`8 T n` units per thread).
@@ -780,9 +793,12 @@ def simulate_batch(
         that memory stays O(B n) beyond a bounded working set.
     block : bool or None
         Which loop runs the batch. ``None`` (default): the block path
-        (:mod:`slidingarm._block`, eight runs advanced together, bit-identical per run) when
-        every run is a planar arm under a built-in sliding-mode law and
-        :math:`B \\ge` :data:`BLOCK_MIN_RUNS`, else the per-run loop. ``False``: always the
+        (:mod:`slidingarm._block`, eight runs advanced together) when every run is a planar
+        arm, or every run a serial arm, under a built-in sliding-mode law with a nominal model
+        of the same kind, and :math:`B \\ge` :data:`BLOCK_MIN_RUNS`; else the per-run loop. A
+        planar run is bit-identical on both paths; a serial one agrees to rounding (the block
+        solves :math:`M^{-1}(\\tau - h)` where the per-run loop runs the articulated-body
+        algorithm). ``False``: always the
         per-run loop (the block kernel's first compilation, about 15 s once per cache for each
         law and joint count, is not worth it for a few dozen runs). ``True``: the block path,
         and a ``ValueError`` saying why if the batch cannot take it.
@@ -927,7 +943,7 @@ def simulate_batch(
         # the kernel of each law the batch has (the paper's is a signature of its own), for
         # the batch's joint count (a signature each)
         for paper in {bool(c == CK.LAW_PAPER) for c in stage.law[0][:, CK.CI_LAW]}:
-            BK.compiled(paper=paper, n=plan.n)
+            BK.compiled(paper=paper, n=plan.n, serial=stage.serial)
         # chunks of at most BLOCK_CHUNK blocks, enough of them for every thread
         nthr = max(1, int(config.NUMBA_NUM_THREADS) if threads is None else int(threads))
         per = max(1, min(BLOCK_CHUNK, -(-len(stage.blocks) // nthr)))

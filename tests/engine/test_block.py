@@ -51,8 +51,16 @@ def run(path: str, *args: Any, **kw: Any) -> sa.BatchResult:
 def test_the_block_policy_names_why_a_batch_cannot_take_the_block_path() -> None:
     kw: dict[str, Any] = dict(q0=sa.PAPER_Q0, t_final=0.01, dt=DT)
     serial = sa.SerialArm.from_urdf(ARM.to_urdf())
-    with pytest.raises(ValueError, match="the plant SerialArm is not a compiled planar arm"):
+    # the plant and the law's nominal model must be of one kind, and so must all the plants
+    with pytest.raises(ValueError, match="FTSMC's nominal model is not a serial arm like the plants"):
         sa.simulate_batch(serial, ftsmc("sign"), REF, block=True, **kw)
+    with pytest.raises(ValueError, match="FTSMC's nominal model is not a planar arm like the plants"):
+        sa.simulate_batch(ARM, sa.FTSMC(serial, alpha=2, beta=2, p=5, q=3, k=20), REF, block=True, **kw)
+    with pytest.raises(ValueError, match="the plants are not all of one kind"):
+        sa.simulate_batch([ARM, serial], ftsmc("sign"), REF, block=True, **kw)
+    paper_law = sa.FTSMC(serial, alpha=2, beta=2, p=5, q=3, k=20, law="paper")
+    with pytest.raises(ValueError, match="uses the paper's law, which is planar"):
+        sa.simulate_batch(serial, paper_law, REF, block=True, **kw)
     with pytest.raises(TypeError, match="block must be True, False or None"):
         sa.simulate_batch(ARM, ftsmc("sign"), REF, block="yes", **kw)  # type: ignore[arg-type]
     # block=False keeps a large batch on the per-run loop, None takes the block path: the
