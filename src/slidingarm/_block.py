@@ -1104,10 +1104,13 @@ def _serial_rnea(ws: np.ndarray, n: int, tab: int, qdoff: int, accoff: int, with
 
 
 @njit(forceinline=True, **_OPT)
-def _serial_crba(ws: np.ndarray, n: int, tab: int, mb: int) -> None:
+def _serial_crba(ws: np.ndarray, joints: tuple[int, ...], tab: int, mb: int) -> None:
     """Composite-rigid-body algorithm per lane with the kinematics in ``_SR``, ``_SO``
     (:func:`slidingarm.models._spatial.crba_known`): ``M`` into the ``n x n`` rows at ``mb``
-    (row ``a``, column ``b`` at ``mb + (a n + b) W``)."""
+    (row ``a``, column ``b`` at ``mb + (a n + b) W``); the composite inertias
+    :math:`I^c_i = I_i + X_{i+1}^T I^c_{i+1} X_{i+1}` here, the entries by
+    :func:`_serial_mass`."""
+    n = len(joints)
     base = _serial_base(n) & _NONNEG
     sb = (base + _SL_END) & _NONNEG
     for i in range(n):
@@ -1172,68 +1175,81 @@ def _serial_crba(ws: np.ndarray, n: int, tab: int, mb: int) -> None:
             ws[sp + _SC + 7 * W + ln] += t00 * e10 + t01 * e11 + t02 * e12 - (ox * ky + kx * oy)
             ws[sp + _SC + 8 * W + ln] += t00 * e20 + t01 * e21 + t02 * e22 - (ox * kz + kx * oz)
             ws[sp + _SC + 9 * W + ln] += t10 * e20 + t11 * e21 + t12 * e22 - (oy * kz + ky * oz)
+    _serial_mass(ws, joints, tab, mb)
+
+
+def _serial_mass_source(n: int) -> str:
+    """Source of the second half of :func:`_serial_crba` for ``n`` joints, from the composite
+    inertias: :math:`M_{ii} = S_i^T I^c_i S_i` (revolute: :math:`I^c (a, 0) = (I_o a, -h
+    \\times a)`; prismatic: :math:`I^c (0, a) = (h \\times a, m a)`) and
+    :math:`M_{ki} = S_k^T X_{k+1}^T \\cdots X_i^T I^c_i S_i` for :math:`k < i`, the force
+    carried down the chain in registers: one lane loop per column, at constant offsets.
+    Written as loops over the columns and the chain, the chain's lane loop (offsets that
+    depend on both loops) stayed scalar per lane (measured)."""
+    sb = J0 + n * JS + 2 * n * n * W + _SL_END
+
+    def so(i: int) -> int:
+        return sb + i * SJS
+
+    lines = ["def mass(ws, joints, tab, mb):"]
     for i in range(n):
-        so = (sb + i * SJS) & _NONNEG
-        ii_at = (mb + (i * n + i) * W) & _NONNEG
-        for ln in range(W):
-            ax = ws[so + tab + 12 * W + ln]
-            ay = ws[so + tab + 13 * W + ln]
-            az = ws[so + tab + 14 * W + ln]
-            m = ws[so + _SC + ln]
-            hx = ws[so + _SC + W + ln]
-            hy = ws[so + _SC + 2 * W + ln]
-            hz = ws[so + _SC + 3 * W + ln]
-            rev = ws[so + tab + 15 * W + ln] == 0.0
-            # revolute: I^c (a, 0) = (I_o a, -h x a); prismatic: I^c (0, a) = (h x a, m a)
-            hxa_x = hy * az - hz * ay
-            hxa_y = hz * ax - hx * az
-            hxa_z = hx * ay - hy * ax
-            ioa_x = ws[so + _SC + 4 * W + ln] * ax + ws[so + _SC + 7 * W + ln] * ay + ws[so + _SC + 8 * W + ln] * az
-            ioa_y = ws[so + _SC + 7 * W + ln] * ax + ws[so + _SC + 5 * W + ln] * ay + ws[so + _SC + 9 * W + ln] * az
-            ioa_z = ws[so + _SC + 8 * W + ln] * ax + ws[so + _SC + 9 * W + ln] * ay + ws[so + _SC + 6 * W + ln] * az
-            nx = ioa_x if rev else hxa_x
-            ny = ioa_y if rev else hxa_y
-            nz = ioa_z if rev else hxa_z
-            fx = -hxa_x if rev else m * ax
-            fy = -hxa_y if rev else m * ay
-            fz = -hxa_z if rev else m * az
-            d_rev = ax * nx + ay * ny + az * nz
-            d_pri = ax * fx + ay * fy + az * fz
-            ws[ii_at + ln] = d_rev if rev else d_pri
-            ws[base + _SL_F + ln] = nx
-            ws[base + _SL_F + W + ln] = ny
-            ws[base + _SL_F + 2 * W + ln] = nz
-            ws[base + _SL_F + 3 * W + ln] = fx
-            ws[base + _SL_F + 4 * W + ln] = fy
-            ws[base + _SL_F + 5 * W + ln] = fz
-        for jj in range(i):
-            j = i - jj
-            sj = (sb + j * SJS) & _NONNEG
-            sk = (sj - SJS) & _NONNEG
+        o = so(i)
+        lines += [
+            f"    for ln in range({W}):",
+            f"        ax = ws[{o} + tab + {12 * W} + ln]",
+            f"        ay = ws[{o} + tab + {13 * W} + ln]",
+            f"        az = ws[{o} + tab + {14 * W} + ln]",
+            f"        m = ws[{o + _SC} + ln]",
+            f"        hx = ws[{o + _SC + W} + ln]",
+            f"        hy = ws[{o + _SC + 2 * W} + ln]",
+            f"        hz = ws[{o + _SC + 3 * W} + ln]",
+            f"        rev = ws[{o} + tab + {15 * W} + ln] == 0.0",
+            "        hxa_x = hy * az - hz * ay",
+            "        hxa_y = hz * ax - hx * az",
+            "        hxa_z = hx * ay - hy * ax",
+            f"        ioa_x = ws[{o + _SC + 4 * W} + ln] * ax + ws[{o + _SC + 7 * W} + ln] * ay"
+            f" + ws[{o + _SC + 8 * W} + ln] * az",
+            f"        ioa_y = ws[{o + _SC + 7 * W} + ln] * ax + ws[{o + _SC + 5 * W} + ln] * ay"
+            f" + ws[{o + _SC + 9 * W} + ln] * az",
+            f"        ioa_z = ws[{o + _SC + 8 * W} + ln] * ax + ws[{o + _SC + 9 * W} + ln] * ay"
+            f" + ws[{o + _SC + 6 * W} + ln] * az",
+            "        nx = ioa_x if rev else hxa_x",
+            "        ny = ioa_y if rev else hxa_y",
+            "        nz = ioa_z if rev else hxa_z",
+            "        fx = -hxa_x if rev else m * ax",
+            "        fy = -hxa_y if rev else m * ay",
+            "        fz = -hxa_z if rev else m * az",
+            "        d_rev = ax * nx + ay * ny + az * nz",
+            "        d_pri = ax * fx + ay * fy + az * fz",
+            f"        ws[mb + {(i * n + i) * W} + ln] = d_rev if rev else d_pri",
+        ]
+        for j in range(i, 0, -1):
             k = j - 1
-            ki_at = (mb + (k * n + i) * W) & _NONNEG
-            ik_at = (mb + (i * n + k) * W) & _NONNEG
-            for ln in range(W):
-                nx, ny, nz, fx, fy, fz = _force_out(
-                    ws, sj, ln, ws[base + _SL_F + ln], ws[base + _SL_F + W + ln],
-                    ws[base + _SL_F + 2 * W + ln], ws[base + _SL_F + 3 * W + ln],
-                    ws[base + _SL_F + 4 * W + ln], ws[base + _SL_F + 5 * W + ln],
-                )  # fmt: skip
-                bx = ws[sk + tab + 12 * W + ln]
-                by = ws[sk + tab + 13 * W + ln]
-                bz = ws[sk + tab + 14 * W + ln]
-                rev = ws[sk + tab + 15 * W + ln] == 0.0
-                v_rev = bx * nx + by * ny + bz * nz
-                v_pri = bx * fx + by * fy + bz * fz
-                v = v_rev if rev else v_pri
-                ws[ki_at + ln] = v
-                ws[ik_at + ln] = v
-                ws[base + _SL_F + ln] = nx
-                ws[base + _SL_F + W + ln] = ny
-                ws[base + _SL_F + 2 * W + ln] = nz
-                ws[base + _SL_F + 3 * W + ln] = fx
-                ws[base + _SL_F + 4 * W + ln] = fy
-                ws[base + _SL_F + 5 * W + ln] = fz
+            lines += [
+                f"        nx, ny, nz, fx, fy, fz = _force_out(ws, {so(j)}, ln, nx, ny, nz, fx, fy, fz)",
+                f"        bx = ws[{so(k)} + tab + {12 * W} + ln]",
+                f"        by = ws[{so(k)} + tab + {13 * W} + ln]",
+                f"        bz = ws[{so(k)} + tab + {14 * W} + ln]",
+                f"        rk = ws[{so(k)} + tab + {15 * W} + ln] == 0.0",
+                "        v_rev = bx * nx + by * ny + bz * nz",
+                "        v_pri = bx * fx + by * fy + bz * fz",
+                "        v = v_rev if rk else v_pri",
+                f"        ws[mb + {(k * n + i) * W} + ln] = v",
+                f"        ws[mb + {(i * n + k) * W} + ln] = v",
+            ]
+    return "\n".join(lines) + "\n"
+
+
+def _serial_mass(ws: np.ndarray, joints: tuple[int, ...], tab: int, mb: int) -> None:  # pragma: no cover - typed
+    """:func:`_serial_mass_source` for ``len(joints)`` joints, generated when numba types it."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_serial_mass, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+def _serial_mass_typed(ws, joints, tab, mb):  # type: ignore[no-untyped-def]
+    scope: dict[str, object] = {"_force_out": _force_out}
+    exec(_serial_mass_source(len(joints)), scope)  # our own generated source
+    return scope["mass"]
 
 
 def _serial_solve_source(n: int) -> str:
@@ -1315,7 +1331,7 @@ def _serial_forward(ws: np.ndarray, joints: tuple[int, ...]) -> None:
         o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[o + _PRHS + ln] = ws[o + _TAPP + ln] - ws[o + _PRHS + ln]
-    _serial_crba(ws, n, _SP, mb)
+    _serial_crba(ws, joints, _SP, mb)
     _serial_solve(ws, joints)
 
 
