@@ -1223,8 +1223,13 @@ def _serial_mass_source(n: int) -> str:
             "        d_pri = ax * fx + ay * fy + az * fz",
             f"        ws[mb + {(i * n + i) * W} + ln] = d_rev if rev else d_pri",
         ]
+        fl = J0 + n * JS + 2 * n * n * W + _SL_F
+        if i > 0:
+            lines += [f"        ws[{fl + r * W} + ln] = {v}" for r, v in enumerate(("nx", "ny", "nz", "fx", "fy", "fz"))]
         for j in range(i, 0, -1):
             k = j - 1
+            lines += [f"    for ln in range({W}):"]
+            lines += [f"        {v} = ws[{fl + r * W} + ln]" for r, v in enumerate(("nx", "ny", "nz", "fx", "fy", "fz"))]
             lines += [
                 f"        nx, ny, nz, fx, fy, fz = _force_out(ws, {so(j)}, ln, nx, ny, nz, fx, fy, fz)",
                 f"        bx = ws[{so(k)} + tab + {12 * W} + ln]",
@@ -1237,6 +1242,8 @@ def _serial_mass_source(n: int) -> str:
                 f"        ws[mb + {(k * n + i) * W} + ln] = v",
                 f"        ws[mb + {(i * n + k) * W} + ln] = v",
             ]
+            if j > 1:
+                lines += [f"        ws[{fl + r * W} + ln] = {v}" for r, v in enumerate(("nx", "ny", "nz", "fx", "fy", "fz"))]
     return "\n".join(lines) + "\n"
 
 
