@@ -140,7 +140,9 @@ def _ur5_batch(path: str, switching: str, *, noise: bool = True, ulp: bool = Fal
     st = load_shipped("ur5").build()
     ctrl = st.controllers["ftsmc"]
     if switching == "sign":
-        ctrl = sa.FTSMC(st.nominal, alpha=2.0, beta=2.0, p=5, q=3, k=[10.0, 10.0, 20.0, 20.0, 10.0, 10.0])
+        ctrl = sa.FTSMC(
+            st.nominal, alpha=2.0, beta=2.0, p=5, q=3, k=[10.0, 10.0, 20.0, 20.0, 10.0, 10.0]
+        )
     nb = kw.pop("nb", 12)
     q0 = np.asarray(st.q0) + np.random.default_rng(5).normal(0.0, 0.02, (nb, UR5.n))
     if ulp:
