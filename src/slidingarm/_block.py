@@ -37,15 +37,19 @@ whatever lane or block it lands in and whatever the thread count: no value cross
 only block-wide decisions are whether *any* lane needs something (the direct sines and cosines
 of a large RK4 stage step, a measurement that differed from the state), and a lane that does
 not need it discards it by a select, so it computes what it would alone. For the serial kind
-a lane agrees with the per-run loop to rounding, not bit for bit (see the serial section
-below); it is still independent of the other lanes, the block size and the thread count.
+a lane agrees with the per-run loop to rounding, not bit for bit (the comment heading the
+serial kind's kernels says why); it is still independent of the other lanes, the block size
+and the thread count.
 
 **Status.** A lane whose torque, sliding variable or state stops being finite, or whose speed
 exceeds ``qd_limit``, records ``[code, sample, joint]`` as ``run_one`` would, stops writing
 outputs and restarts from its initial state (finite values cost what live ones cost); when
 every lane has failed the block returns. ``run_one``'s ABA returns early at a pivot that is not
 positive; the block computes on and only records the failure, which for a planar arm with
-positive masses happens only with a non-finite state, reported as such first.
+positive masses happens only with a non-finite state, reported as such first. A serial arm's
+mass matrix can be singular at a finite state (a massless body at the tip): the block's
+Cholesky takes 1 for such a pivot, so the state stays finite and the run is reported
+singular, as the per-run loop reports it (:func:`_serial_solve_source`).
 
 **Metrics** (``record`` other than ``"full"``): the kernel streams per lane what
 :func:`slidingarm.results.metric_values` computes from the traces: the sums by Neumaier's
@@ -80,7 +84,7 @@ W = 8
 #: The elementary functions of the block loop, inlined into its lane loops
 #: (:mod:`slidingarm._vecmath`, at most 1 ulp each, no libm call): those the scalar loop calls
 #: (:func:`slidingarm.models._kernels.sincos`, :func:`slidingarm.control._kernels.pow_abs`
-#: and ``tanh``), so that runs are bit-identical.
+#: and ``tanh`` for a planar nominal model), so that planar runs are bit-identical.
 sincos = VM.sincos
 pow_abs = VM.pow_abs
 tanh = VM.tanh
@@ -277,7 +281,7 @@ _A_PTAU = (_MACC + M_PTAU) * W
 # ws[_serial_base(n) + _SL_END + i SJS + _SX + ln]
 _SL_W = 0 * W  # 3: the body's angular velocity (RNEA), then 3: its linear velocity
 _SL_B = 6 * W  # 3 + 3: its acceleration (RNEA)
-_SL_F = 12 * W  # 6: a force carried to the parent (RNEA's backward pass, CRBA)
+_SL_F = 12 * W  # 6: a force carried down the chain (the mass matrix's entries)
 _SL_END = 18 * W
 _SP = 0 * W  # 26: the plant's table (slidingarm.models._spatial, joint-aligned)
 _SM = 26 * W  # 26: the nominal model's table
@@ -285,9 +289,8 @@ _SR = 52 * W  # 9: R_pc
 _SO = 61 * W  # 3: r, the body's origin in its parent
 _SF = 64 * W  # 6: the body's force (RNEA)
 _SC = 70 * W  # 10: its composite inertia (CRBA)
-_SH = 80 * W  # the bias h (forward dynamics)
 #: Stride of one joint's serial rows.
-SJS = 81 * W
+SJS = 80 * W
 #: Rows of a serial kind's table that the block copies (the physical ones).
 SERIAL_TABLE_ROWS = 26
 
@@ -903,9 +906,11 @@ def _cholesky_solve(ws: np.ndarray, n: int, lb: int, rhs: int, out: int) -> None
 # composite-rigid-body algorithm, the recursive Newton-Euler algorithm and a Cholesky solve
 # (O(n^2), all of it vector code across lanes), where the scalar path uses the
 # articulated-body algorithm (O(n)); the scalar kernels also fuse products and sums
-# (``fastmath={"contract"}``), which this module never does. So a serial run on the block path
-# agrees with the per-run loop to rounding, not bit for bit (tests/engine/test_block.py states
-# the tolerance). Per joint the choice between a revolute and a prismatic joint is a select
+# (``fastmath={"contract"}``), which this module never does; the per-run law of a serial
+# nominal model calls libm's pow and tanh (this module: slidingarm._vecmath's, within 1 ulp);
+# and each RK4 stage here takes its sines and cosines directly instead of rotating the step's
+# first. So a serial run on the block path agrees with the per-run loop to rounding, not bit
+# for bit (tests/engine/test_block_serial.py states the tolerances). Per joint the choice between a revolute and a prismatic joint is a select
 # on the table's type row, the same for every lane of a block in practice.
 
 
@@ -1003,8 +1008,7 @@ def _serial_rnea(ws: np.ndarray, n: int, tab: int, qdoff: int, accoff: int, with
     (:func:`slidingarm.models._spatial.rnea_known`): :math:`\\tau = M(q) \\ddot q + h(q,
     \\dot q)` with :math:`\\dot q` in joint rows ``qdoff`` and :math:`\\ddot q` in ``accoff``
     (``with_acc``; else :math:`\\ddot q = 0`: the bias ``h``), gravity ``ws[gl + ln]``, the
-    table at serial rows ``tab``; into joint rows ``out`` (an offset from a joint's serial
-    rows if ``out < 0``: ``-out``)."""
+    table at serial rows ``tab``; into joint rows ``out``."""
     base = _serial_base(n) & _NONNEG
     sb = (base + _SL_END) & _NONNEG
     for ln in range(W):
@@ -1267,8 +1271,10 @@ def _serial_solve_source(n: int) -> str:
     each entry (a lane loop each, at constant offsets). Written as loops over the entries,
     LLVM did not unroll them (too large once nested) and the whole solve stayed scalar per
     lane (measured: no vector instruction in it); written out, each lane loop is vector code.
-    A lane with a pivot that is not positive clears ``_L_OK`` and computes on (its run is
-    reported singular)."""
+    A lane with a pivot that is not positive clears ``_L_OK`` and takes 1 for it, so that its
+    state stays finite and the run is reported singular (code, sample and joint 0), as the
+    per-run loop's articulated-body pass reports it (a NaN pivot passes through: a non-finite
+    state is reported as such first, on both paths)."""
     mb = J0 + n * JS
     lb = mb + n * n * W
     t0 = _L_T0
@@ -1295,7 +1301,7 @@ def _serial_solve_source(n: int) -> str:
                     f"        piv = ws[{t0} + ln]",
                     f"        ok = ws[{_L_OK} + ln]",
                     f"        ws[{_L_OK} + ln] = ok if piv > 0.0 else 0.0",
-                    f"        ws[{l_at(i, i)} + ln] = math.sqrt(piv)",
+                    f"        ws[{l_at(i, i)} + ln] = math.sqrt(1.0 if piv <= 0.0 else piv)",
                 ]
             else:
                 lines += [loop, f"        ws[{l_at(i, j)} + ln] = ws[{t0} + ln] / ws[{l_at(j, j)} + ln]"]
@@ -1693,9 +1699,11 @@ def run_block(
     law_tag: np.ndarray,
     joints: tuple[int, ...],
 ) -> None:
-    """``W`` closed-loop runs of planar plants ``pp`` (4, n, W) (gravity ``pg`` (W,)) under
+    """``W`` closed-loop runs of plants ``pp`` (rows, n, W) (gravity ``pg`` (W,)) under
     the sliding-mode law with codes ``codes`` (``CK.NCI``,) and table ``cf`` (``CK.NCF``, n,
-    W), nominal models ``mp`` (4, n, W), ``mg`` (W,); see the module docstring. ``q0, qd0,
+    W), nominal models ``mp`` (rows, n, W), ``mg`` (W,) (the kind's tables: 4 rows planar, a
+    serial kind's :data:`SERIAL_TABLE_ROWS` or more; the kind is ``law_tag``'s); see the
+    module docstring. ``q0, qd0,
     tmax`` are (n, W), ``vfb`` (NVF, n, W).
 
     Lane ``ln`` is run ``lanes[ln]`` of the batch: it writes its recorded samples (every

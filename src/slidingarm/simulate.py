@@ -423,7 +423,7 @@ class _BlockStage:
     """A batch's per-run block inputs, built once per distinct object: stacked tables
     (distinct, ...) and each run's index into them."""
 
-    plant: tuple[FloatArray, FloatArray, NDArray[np.int64]]  # params (D, 4, n), g (D,), idx
+    plant: tuple[FloatArray, FloatArray, NDArray[np.int64]]  # params (D, rows, n), g (D,), idx
     law: tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64]]
     sensor: tuple[NDArray[np.int64], FloatArray, list[Sensor], NDArray[np.int64]]
     limit: tuple[FloatArray, NDArray[np.int64]]
@@ -799,8 +799,8 @@ def simulate_batch(
         planar run is bit-identical on both paths; a serial one agrees to rounding (the block
         solves :math:`M^{-1}(\\tau - h)` where the per-run loop runs the articulated-body
         algorithm). ``False``: always the
-        per-run loop (the block kernel's first compilation, about 15 s once per cache for each
-        law and joint count, is not worth it for a few dozen runs). ``True``: the block path,
+        per-run loop (the block kernel's first compilation, 15-35 s once per cache for each
+        law, arm kind and joint count, is not worth it for a few dozen runs). ``True``: the block path,
         and a ``ValueError`` saying why if the batch cannot take it.
     threads : int or None
         At most this many threads run the batch's compiled loops (each releases the GIL).

@@ -117,14 +117,32 @@ def test_the_lanes_dynamics_equal_the_scalar_kernels(arm: sa.SerialArm) -> None:
 
 
 def test_a_singular_mass_matrix_clears_the_lane_only() -> None:
-    """A lane whose state is not finite has no positive pivot: it, and only it, is flagged."""
+    """A lane whose state is not finite has no positive pivot: it, and only it, is flagged
+    (its acceleration not finite either)."""
     arm = _prismatic_chain()
     n, p, g = arm.n, np.ascontiguousarray(arm.handle.params), arm.handle.g
     q = np.zeros((n, BK.W))
     q[2, 3] = np.nan
     z = np.zeros((n, BK.W))
-    _qdd, _out, ok = _lane_dynamics(np.zeros(BK.workspace_size(n)), (0,) * n, p, g, q, z, z, z)
+    qdd, _out, ok = _lane_dynamics(np.zeros(BK.workspace_size(n)), (0,) * n, p, g, q, z, z, z)
     assert ok.tolist() == [1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 1.0]
+    assert np.all(np.isfinite(np.delete(qdd, 3, axis=1))) and not np.all(np.isfinite(qdd[:, 3]))
+
+
+def test_a_massless_tip_is_flagged_singular_with_a_finite_acceleration() -> None:
+    """A body with no mass nor inertia at the tip makes ``M`` singular at any (finite) state:
+    every lane is flagged and its acceleration stays finite, so that the run is reported
+    singular, not non-finite, as the per-run loop's articulated-body pass reports it."""
+    arm = _prismatic_chain()
+    n, g = arm.n, arm.handle.g
+    p = np.array(arm.handle.params)
+    p[SK.P_MASS : SK.P_IO + 6, n - 1] = 0.0
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1.0, 1.0, (n, BK.W))
+    z = np.zeros((n, BK.W))
+    qdd, _out, ok = _lane_dynamics(np.zeros(BK.workspace_size(n)), (0,) * n, p, g, q, z, z, z)
+    assert np.all(ok == 0.0)
+    assert np.all(np.isfinite(qdd))
 
 
 # ------------------------------------------------------------------------ whole batches (slow)
@@ -216,3 +234,30 @@ def test_ur5_block_status_and_threads() -> None:
 def test_the_papers_law_has_no_serial_block_kernel() -> None:
     with pytest.raises(ValueError, match="the paper's law has no serial-arm block kernel"):
         BK.compiled(paper=True, n=6, serial=True)
+
+
+@pytest.mark.slow  # the same kernel as the UR5 tests above
+def test_a_massless_tip_is_reported_singular_on_both_paths() -> None:
+    """The UR5 with its last link massless (a URDF the loader accepts): both paths stop every
+    run at the first step with the same status (singular, sample 1, joint 0)."""
+    text = (Path(sa.robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
+    head, tail = text.split('<link name="wrist_3_link">', 1)
+    inertial, rest = tail.split("</inertial>", 1)
+    empty = (
+        '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
+        '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
+    )
+    arm = sa.SerialArm.from_urdf(head + '<link name="wrist_3_link">' + empty + "</inertial>" + rest)
+    ctrl = sa.FTSMC(arm, alpha=2.0, beta=2.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
+    ref = sa.QuinticReference(np.zeros(6), np.full(6, 0.5), duration=1.0)
+    q0 = np.random.default_rng(2).normal(0.0, 0.1, (10, 6))
+    runs = {
+        path: sa.simulate_batch(arm, ctrl, ref, q0=q0, t_final=0.05, dt=1e-3, throw=False,
+                                block=path == "block")  # fmt: skip
+        for path in ("block", "scalar")
+    }
+    for name in ("status_code", "fail_time", "fail_joint"):
+        np.testing.assert_array_equal(
+            getattr(runs["block"], name), getattr(runs["scalar"], name), err_msg=name
+        )
+    assert np.all(runs["block"].status_code == E.STATUS_SINGULAR)

@@ -275,7 +275,8 @@ def sliding_mode_into(
     classic = p[CI_REACHING] == REACH_CLASSIC
     # a planar nominal model is what the block loop (slidingarm._block) runs: its powers and
     # tanh by the block's vectorisable functions, so that both loops compute the same bits;
-    # the serial kind keeps libm's (no block loop for it yet)
+    # the serial kind keeps libm's (quicker here; its block loop agrees to rounding anyway:
+    # its dynamics are another algorithm, slidingarm._block)
     vec = mkind == MD.KIND_PLANAR
     nu = work[_ROW_NU]
     r = work[_ROW_R]
