@@ -242,7 +242,7 @@ def test_a_massless_tip_is_reported_singular_on_both_paths() -> None:
     run at the first step with the same status (singular, sample 1, joint 0)."""
     text = (Path(sa.robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
     head, tail = text.split('<link name="wrist_3_link">', 1)
-    inertial, rest = tail.split("</inertial>", 1)
+    _inertial, rest = tail.split("</inertial>", 1)
     empty = (
         '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
         '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
@@ -251,9 +251,9 @@ def test_a_massless_tip_is_reported_singular_on_both_paths() -> None:
     ctrl = sa.FTSMC(arm, alpha=2.0, beta=2.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
     ref = sa.QuinticReference(np.zeros(6), np.full(6, 0.5), duration=1.0)
     q0 = np.random.default_rng(2).normal(0.0, 0.1, (10, 6))
+    kw: dict[str, Any] = dict(q0=q0, t_final=0.05, dt=1e-3, throw=False)
     runs = {
-        path: sa.simulate_batch(arm, ctrl, ref, q0=q0, t_final=0.05, dt=1e-3, throw=False,
-                                block=path == "block")  # fmt: skip
+        path: sa.simulate_batch(arm, ctrl, ref, block=path == "block", **kw)
         for path in ("block", "scalar")
     }
     for name in ("status_code", "fail_time", "fail_joint"):
