@@ -165,11 +165,12 @@ def _ur5_batch(path: str, switching: str, *, noise: bool = True, ulp: bool = Fal
     q0 = np.asarray(st.q0) + np.random.default_rng(5).normal(0.0, 0.02, (nb, UR5.n))
     if ulp:
         q0[:, 2] = np.nextafter(q0[:, 2], np.inf)
+    order = kw.pop("order", np.arange(nb))
     sensor = sa.Sensor(noise=sa.GaussianNoise(sigma=1e-4),
                        velocity=sa.sensors.DirtyDerivative(time_constant=0.005))  # fmt: skip
     return sa.simulate_batch(
-        st.plant, ctrl, st.reference, q0=q0, t_final=kw.pop("t_final", 1.0), dt=st.dt,
-        torque_limit=st.torque_limit, sensor=sensor if noise else None, seeds=list(range(nb)),
+        st.plant, ctrl, st.reference, q0=q0[order], t_final=kw.pop("t_final", 1.0), dt=st.dt,
+        torque_limit=st.torque_limit, sensor=sensor if noise else None, seeds=[int(b) for b in order],
         block=path == "block", **kw,
     )  # fmt: skip
 
@@ -217,11 +218,14 @@ def test_a_chattering_ur5_loop_differs_only_as_round_off_moves_it() -> None:
 def test_ur5_block_status_and_threads() -> None:
     """A run that runs away (a huge initial speed) is named with the same code, sample and
     joint on both paths and the others finish; the block path gives the same bits on 1 and
-    2 threads."""
+    2 threads and whichever lane and block a run lands in (the batch reversed)."""
     one = _ur5_batch("block", "tanh", nb=10, threads=1)
     two = _ur5_batch("block", "tanh", nb=10, threads=2)
+    back = _ur5_batch("block", "tanh", nb=10, order=np.arange(10)[::-1])
     np.testing.assert_array_equal(one.q, two.q)
     np.testing.assert_array_equal(one.tau, two.tau)
+    np.testing.assert_array_equal(one.q, back.q[::-1])
+    np.testing.assert_array_equal(one.s, back.s[::-1])
     kw = dict(qd0=np.where(np.arange(10)[:, None] == 4, 1e4, 0.0) * np.ones((10, UR5.n)))
     fast_b = _ur5_batch("block", "tanh", nb=10, throw=False, **kw)
     fast_s = _ur5_batch("scalar", "tanh", nb=10, throw=False, **kw)
