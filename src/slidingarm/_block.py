@@ -907,9 +907,9 @@ def _cholesky_solve(ws: np.ndarray, n: int, lb: int, rhs: int, out: int) -> None
 # (O(n^2), all of it vector code across lanes), where the scalar path uses the
 # articulated-body algorithm (O(n)); the scalar kernels also fuse products and sums
 # (``fastmath={"contract"}``), which this module never does; the per-run law of a serial
-# nominal model calls libm's pow and tanh (this module: slidingarm._vecmath's, within 1 ulp);
-# and each RK4 stage here takes its sines and cosines directly instead of rotating the step's
-# first. So a serial run on the block path agrees with the per-run loop to rounding, not bit
+# nominal model calls libm's pow and tanh (this module: slidingarm._vecmath's, within 1 ulp).
+# Like the per-run loop, each RK4 stage rotates the step's sines and cosines by the stage's
+# step (:func:`_serial_stage_angles`). So a serial run on the block path agrees with the per-run loop to rounding, not bit
 # for bit (tests/engine/test_block_serial.py states the tolerances). Per joint the choice between a revolute and a prismatic joint is a select
 # on the table's type row, the same for every lane of a block in practice.
 
@@ -919,14 +919,29 @@ def _serial_kinematics(ws: np.ndarray, n: int, qoff: int, tab: int) -> None:
     """Each body's ``R_pc`` (``_SR``) and origin ``r`` (``_SO``) in its parent at the
     positions in joint rows ``qoff``, from the table at serial rows ``tab``
     (:func:`slidingarm.models._spatial._place`): a revolute joint's ``R_pc = R_0 Rot(e_z,
-    q)``, ``r = p_0``; a prismatic one's ``R_pc = R_0``, ``r = p_0 + q R_0 e_z``."""
+    q)``, ``r = p_0``; a prismatic one's ``R_pc = R_0``, ``r = p_0 + q R_0 e_z``. The
+    cosines and sines of the coordinates are taken here, into ``_AC``, ``_AS``."""
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            sv, cv = sincos(ws[o + qoff + ln])
+            ws[o + _AC + ln] = cv
+            ws[o + _AS + ln] = sv
+    _serial_place(ws, n, qoff, tab)
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_place(ws: np.ndarray, n: int, qoff: int, tab: int) -> None:
+    """:func:`_serial_kinematics` with the cosines and sines of the coordinates in joint
+    rows ``_AC``, ``_AS`` already."""
     sb = (_serial_base(n) + _SL_END) & _NONNEG
     for i in range(n):
         o = (J0 + i * JS) & _NONNEG
         so = (sb + i * SJS) & _NONNEG
         for ln in range(W):
             qv = ws[o + qoff + ln]
-            sv, cv = sincos(qv)
+            cv = ws[o + _AC + ln]
+            sv = ws[o + _AS + ln]
             rev = ws[so + tab + 15 * W + ln] == 0.0
             c = cv if rev else 1.0
             sn = sv if rev else 0.0
@@ -1333,12 +1348,12 @@ def _serial_solve_typed(ws, joints):  # type: ignore[no-untyped-def]
 
 @njit(forceinline=True, **_OPT)
 def _serial_forward(ws: np.ndarray, joints: tuple[int, ...]) -> None:
-    """The serial plant's acceleration per lane at the stage position ``_QT``, velocity
-    ``_VT`` and input ``_TAPP``: :math:`\\ddot q = M(q)^{-1} (\\tau - h(q, \\dot q))` into
+    """The serial plant's acceleration per lane at the stage position ``_QT`` (the cosines
+    and sines of its coordinates in ``_AC``, ``_AS``), velocity ``_VT`` and input ``_TAPP``: :math:`\\ddot q = M(q)^{-1} (\\tau - h(q, \\dot q))` into
     ``_KX`` (a pivot that is not positive clears ``_L_OK``)."""
     n = len(joints)
     mb = (J0 + n * JS) & _NONNEG
-    _serial_kinematics(ws, n, _QT, _SP)
+    _serial_place(ws, n, _QT, _SP)
     _serial_rnea(ws, n, _SP, _VT, _VT, False, _L_G, _PRHS)
     for i in range(n):
         o = (J0 + i * JS) & _NONNEG
@@ -1356,19 +1371,64 @@ def _rk4_serial(ws: np.ndarray, joints: tuple[int, ...], h: float) -> None:
     for i in range(n):
         o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
-            ws[o + _QT + ln] = ws[o + _Q + ln]
+            qv = ws[o + _Q + ln]
+            sv, cv = sincos(qv)
+            ws[o + _BC + ln] = cv
+            ws[o + _BS + ln] = sv
+            ws[o + _AC + ln] = cv
+            ws[o + _AS + ln] = sv
+            ws[o + _QT + ln] = qv
             ws[o + _VT + ln] = ws[o + _QD + ln]
     _serial_forward(ws, joints)
     _keep_stage(ws, n, _K0)
     _stage(ws, n, 0.5, h, True, _K0, _K0)
+    _serial_stage_angles(ws, n)
     _serial_forward(ws, joints)
     _keep_stage(ws, n, _K1)
     _stage(ws, n, 0.5, h, False, _K1, _K0)
+    _serial_stage_angles(ws, n)
     _serial_forward(ws, joints)
     _keep_stage(ws, n, _K2)
     _stage(ws, n, 1.0, h, False, _K2, _K1)
+    _serial_stage_angles(ws, n)
     _serial_forward(ws, joints)
     _rk4_finish(ws, n, h)
+
+
+@njit(forceinline=True, **_OPT)
+def _serial_stage_angles(ws: np.ndarray, n: int) -> None:
+    """The cosines and sines of a stage's coordinates ``_QT`` into ``_AC``, ``_AS``: those of
+    the step's start (``_BC``, ``_BS``) rotated by the stage's step ``_DQ`` where it is at
+    most ``2**-5`` (the per-run loop's
+    :func:`slidingarm.models._spatial._angles_shifted_into`), else taken directly (only if
+    some lane needs it)."""
+    for ln in range(W):
+        ws[_L_FAR + ln] = 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            far = ws[_L_FAR + ln]
+            ws[_L_FAR + ln] = far if abs(ws[o + _DQ + ln]) <= 0.03125 else 1.0
+    anyfar = False
+    for ln in range(W):
+        anyfar |= ws[_L_FAR + ln] != 0.0
+    for i in range(n):
+        o = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            delta = ws[o + _DQ + ln]
+            c = ws[o + _BC + ln]
+            s = ws[o + _BS + ln]
+            d2 = delta * delta
+            sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
+            cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
+            ws[o + _AC + ln] = c + (c * cos_m1 - s * sin_d)
+            ws[o + _AS + ln] = s + (s * cos_m1 + c * sin_d)
+        if anyfar:
+            for ln in range(W):
+                sv, cv = sincos(ws[o + _QT + ln])
+                near = abs(ws[o + _DQ + ln]) <= 0.03125
+                ws[o + _AC + ln] = ws[o + _AC + ln] if near else cv
+                ws[o + _AS + ln] = ws[o + _AS + ln] if near else sv
 
 
 @njit(forceinline=True, **_OPT)

@@ -54,6 +54,7 @@ def _lane_dynamics(ws, joints, table, g, q, qd, tau, acc):  # type: ignore[no-un
             ws[o + BK._QM + ln] = q[j, ln]
             ws[o + BK._QDM + ln] = qd[j, ln]
             ws[o + BK._ACC + ln] = acc[j, ln]
+    BK._serial_kinematics(ws, n, BK._QT, BK._SP)  # the stage's angles, as RK4 leaves them
     BK._serial_forward(ws, joints)
     BK._serial_torque(ws, n)
     qdd = np.empty((n, BK.W))
