@@ -77,6 +77,7 @@ from numba.extending import overload
 from slidingarm import _engine as E
 from slidingarm import _vecmath as VM
 from slidingarm.control import _kernels as CK
+from slidingarm.models import _spatial as SK
 
 #: Lanes of a block: eight float64, one AVX-512 register.
 W = 8
@@ -1068,18 +1069,12 @@ def _serial_rnea(ws: np.ndarray, n: int, tab: int, qdoff: int, accoff: int, with
             ixz = ws[so + tab + 24 * W + ln]
             iyz = ws[so + tab + 25 * W + ln]
             # the rigid inertia times (w, v) and times (b, c): (I_o w + h x v, m v - h x w)
-            n1x = ixx * wx + ixy * wy + ixz * wz + hy * vz - hz * vy
-            n1y = ixy * wx + iyy * wy + iyz * wz + hz * vx - hx * vz
-            n1z = ixz * wx + iyz * wy + izz * wz + hx * vy - hy * vx
-            f1x = m * vx - (hy * wz - hz * wy)
-            f1y = m * vy - (hz * wx - hx * wz)
-            f1z = m * vz - (hx * wy - hy * wx)
-            n2x = ixx * bx + ixy * by + ixz * bz + hy * cz - hz * cy
-            n2y = ixy * bx + iyy * by + iyz * bz + hz * cx - hx * cz
-            n2z = ixz * bx + iyz * by + izz * bz + hx * cy - hy * cx
-            f2x = m * cx - (hy * bz - hz * by)
-            f2y = m * cy - (hz * bx - hx * bz)
-            f2z = m * cz - (hx * by - hy * bx)
+            n1x, n1y, n1z, f1x, f1y, f1z = SK._rigid_times(
+                m, hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz, wx, wy, wz, vx, vy, vz
+            )
+            n2x, n2y, n2z, f2x, f2y, f2z = SK._rigid_times(
+                m, hx, hy, hz, ixx, iyy, izz, ixy, ixz, iyz, bx, by, bz, cx, cy, cz
+            )
             ws[so + _SF + ln] = n2x + wy * n1z - wz * n1y + vy * f1z - vz * f1y
             ws[so + _SF + W + ln] = n2y + wz * n1x - wx * n1z + vz * f1x - vx * f1z
             ws[so + _SF + 2 * W + ln] = n2z + wx * n1y - wy * n1x + vx * f1y - vy * f1x
@@ -1164,36 +1159,22 @@ def _serial_crba(ws: np.ndarray, joints: tuple[int, ...], tab: int, mb: int) -> 
             ox = ws[so + _SO + ln]
             oy = ws[so + _SO + W + ln]
             oz = ws[so + _SO + 2 * W + ln]
-            # slidingarm.models._spatial._carry_inertia
-            gx = e00 * hx + e01 * hy + e02 * hz
-            gy = e10 * hx + e11 * hy + e12 * hz
-            gz = e20 * hx + e21 * hy + e22 * hz
-            t00 = e00 * jxx + e01 * jxy + e02 * jxz
-            t01 = e00 * jxy + e01 * jyy + e02 * jyz
-            t02 = e00 * jxz + e01 * jyz + e02 * jzz
-            t10 = e10 * jxx + e11 * jxy + e12 * jxz
-            t11 = e10 * jxy + e11 * jyy + e12 * jyz
-            t12 = e10 * jxz + e11 * jyz + e12 * jzz
-            t20 = e20 * jxx + e21 * jxy + e22 * jxz
-            t21 = e20 * jxy + e21 * jyy + e22 * jyz
-            t22 = e20 * jxz + e21 * jyz + e22 * jzz
-            hm = 0.5 * m
-            kx = gx + hm * ox
-            ky = gy + hm * oy
-            kz = gz + hm * oz
-            pkx = ox * kx
-            pky = oy * ky
-            pkz = oz * kz
+            # (m, h, I_o) carried to the parent (numba inlines the scalar helper's body here: the
+            # same formulas, without the scalar kernels' fastmath flags)
+            gx, gy, gz, ixx, iyy, izz, ixy, ixz, iyz = SK._carry_inertia(
+                m, hx, hy, hz, jxx, jyy, jzz, jxy, jxz, jyz,
+                e00, e01, e02, e10, e11, e12, e20, e21, e22, ox, oy, oz,
+            )  # fmt: skip
             ws[sp + _SC + ln] += m
-            ws[sp + _SC + W + ln] += gx + m * ox
-            ws[sp + _SC + 2 * W + ln] += gy + m * oy
-            ws[sp + _SC + 3 * W + ln] += gz + m * oz
-            ws[sp + _SC + 4 * W + ln] += t00 * e00 + t01 * e01 + t02 * e02 + 2.0 * (pky + pkz)
-            ws[sp + _SC + 5 * W + ln] += t10 * e10 + t11 * e11 + t12 * e12 + 2.0 * (pkx + pkz)
-            ws[sp + _SC + 6 * W + ln] += t20 * e20 + t21 * e21 + t22 * e22 + 2.0 * (pkx + pky)
-            ws[sp + _SC + 7 * W + ln] += t00 * e10 + t01 * e11 + t02 * e12 - (ox * ky + kx * oy)
-            ws[sp + _SC + 8 * W + ln] += t00 * e20 + t01 * e21 + t02 * e22 - (ox * kz + kx * oz)
-            ws[sp + _SC + 9 * W + ln] += t10 * e20 + t11 * e21 + t12 * e22 - (oy * kz + ky * oz)
+            ws[sp + _SC + W + ln] += gx
+            ws[sp + _SC + 2 * W + ln] += gy
+            ws[sp + _SC + 3 * W + ln] += gz
+            ws[sp + _SC + 4 * W + ln] += ixx
+            ws[sp + _SC + 5 * W + ln] += iyy
+            ws[sp + _SC + 6 * W + ln] += izz
+            ws[sp + _SC + 7 * W + ln] += ixy
+            ws[sp + _SC + 8 * W + ln] += ixz
+            ws[sp + _SC + 9 * W + ln] += iyz
     _serial_mass(ws, joints, tab, mb)
 
 
