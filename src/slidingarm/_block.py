@@ -77,6 +77,7 @@ from numba.extending import overload
 from slidingarm import _engine as E
 from slidingarm import _vecmath as VM
 from slidingarm.control import _kernels as CK
+from slidingarm.models import _kernels as PK
 from slidingarm.models import _spatial as SK
 
 #: Lanes of a block: eight float64, one AVX-512 register.
@@ -1396,14 +1397,9 @@ def _serial_stage_angles(ws: np.ndarray, n: int) -> None:
     for i in range(n):
         o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
-            delta = ws[o + _DQ + ln]
-            c = ws[o + _BC + ln]
-            s = ws[o + _BS + ln]
-            d2 = delta * delta
-            sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
-            cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
-            ws[o + _AC + ln] = c + (c * cos_m1 - s * sin_d)
-            ws[o + _AS + ln] = s + (s * cos_m1 + c * sin_d)
+            c, s = PK.rotated(ws[o + _BC + ln], ws[o + _BS + ln], ws[o + _DQ + ln])
+            ws[o + _AC + ln] = c
+            ws[o + _AS + ln] = s
         if anyfar:
             for ln in range(W):
                 sv, cv = sincos(ws[o + _QT + ln])
