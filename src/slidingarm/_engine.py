@@ -422,6 +422,15 @@ def compile_part(index: int) -> None:
     dispatcher.compile(sig.args)
 
 
+def prime() -> None:
+    """Do in this process what every part of :data:`LOOP_PARTS` and the paper's law would each
+    do first: numba's own set-up of its first compilation in a process, and the model's
+    :func:`~slidingarm.models._kernels.sincos`, which all of them call (about 0.3 CPU-s each,
+    cold). Worker processes forked after this inherit both instead of each repeating them
+    (:func:`slidingarm.study.reproduce`); nothing to compile if the cache holds it."""
+    PK.sincos.compile((types.float64,))
+
+
 def loop_cached() -> bool:
     """Whether numba's cache holds :func:`run_one` compiled from this source (for some
     signature): then a process loads the loop from it and compiles no part of it, and

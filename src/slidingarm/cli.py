@@ -99,7 +99,11 @@ def _errors() -> Iterator[None]:
 
 @contextmanager
 def _progress() -> Iterator[Callable[[str, int, int], None] | None]:
-    """A rich progress bar on stderr when stdout is a terminal; otherwise no callback."""
+    """A rich progress bar on stderr when stdout is a terminal; otherwise no callback.
+
+    The bar is redrawn at each step rather than by a thread of its own (``auto_refresh``
+    off): a process running no other thread can fork its workers
+    (:func:`slidingarm.study.reproduce`), which starts them about a second sooner."""
     if not sys.stdout.isatty():
         yield None
         return
@@ -113,11 +117,12 @@ def _progress() -> Iterator[Callable[[str, int, int], None] | None]:
         TimeElapsedColumn(),
         console=Console(stderr=True),
         transient=True,
+        auto_refresh=False,
     )
     task = bar.add_task("starting", total=None)
 
     def update(what: str, done: int, total: int) -> None:
-        bar.update(task, description=what, completed=done, total=total)
+        bar.update(task, description=what, completed=done, total=total, refresh=True)
 
     with bar:
         yield update

@@ -262,7 +262,8 @@ def _start_reproduce(out: Path) -> tuple[subprocess.Popen[bytes], list[int]]:
     deadline = time.monotonic() + 120
     workers: list[int] = []
     while time.monotonic() < deadline and proc.poll() is None:
-        workers = [c for c in _children(proc.pid) if "spawn_main" in _cmdline(c)]
+        # forked workers (Linux, slidingarm.study.reproduce._worker_context) or spawned ones
+        workers = [c for c in _children(proc.pid) if "resource_tracker" not in _cmdline(c)]
         if len(workers) == 2:
             break
         time.sleep(0.05)
@@ -333,6 +334,93 @@ def test_sigterm_of_reproduce_cleans_up_like_ctrl_c(tmp_path: Path) -> None:
     assert alive == [], f"orphans left by SIGTERM: {[_cmdline(p) for p in alive]}"
     assert not out.exists(), "the folder this run created is gone with its staging folder"
     assert hidden(out) == []
+
+
+_CONTEXT = """
+import threading
+from slidingarm.study.reproduce import _worker_context
+alone = _worker_context().get_start_method()
+release = threading.Event()
+other = threading.Thread(target=release.wait)
+other.start()
+beside = _worker_context().get_start_method()
+release.set()
+other.join()
+print(alone, beside)
+"""
+
+
+@pytest.mark.skipif(not LINUX, reason="workers are forked on Linux only")
+def test_workers_are_forked_only_from_a_process_running_no_other_thread() -> None:
+    # a fork copies the locks another thread may hold: with one running, workers are spawned
+    done = subprocess.run(
+        [sys.executable, "-c", _CONTEXT], capture_output=True, text=True, check=True
+    )
+    assert done.stdout.split() == ["fork", "spawn"], done.stderr
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")
+def test_a_process_forked_during_a_study_ends_on_sigterm() -> None:
+    # the study handles SIGTERM as Ctrl-C; its forked figure workers must not inherit that
+    code = (
+        "import importlib, os, signal\n"
+        "R = importlib.import_module('slidingarm.study.reproduce')\n"
+        "with R._terminate_as_interrupt():\n"
+        "    study = signal.getsignal(signal.SIGTERM)\n"
+        "    pid = os.fork()\n"
+        "    if pid == 0:\n"
+        "        os._exit(0 if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL else 3)\n"
+        "    _, status = os.waitpid(pid, 0)\n"
+        "    assert os.waitstatus_to_exitcode(status) == 0, status\n"
+        "    assert signal.getsignal(signal.SIGTERM) is study != signal.SIG_DFL\n"
+        "pid = os.fork()\n"  # outside a study a fork keeps the handler it has
+        "if pid == 0:\n"
+        "    os._exit(0 if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL else 4)\n"
+        "assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 0\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_a_sigterm_inside_a_compiler_callback_waits_for_the_next_step() -> None:
+    # an exception raised in a ctypes callback (llvmlite's, while numba compiles) is printed
+    # and dropped: the study would go on to the end; it is held back to the next step instead
+    import importlib
+
+    R = importlib.import_module("slidingarm.study.reproduce")
+    scope: dict[str, object] = {"__name__": "llvmlite.binding.fake", "sys": sys}
+    exec("def callback():\n    return sys._getframe()", scope)
+    inside = scope["callback"]()  # type: ignore[operator]
+    termination = R._Termination()
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        termination.handler(signal.SIGTERM, inside)
+        assert termination.pending
+        with pytest.raises(KeyboardInterrupt):
+            termination.check()
+        assert not termination.pending
+        with pytest.raises(KeyboardInterrupt):  # elsewhere it interrupts at once
+            termination.handler(signal.SIGTERM, sys._getframe())
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def test_the_progress_bar_runs_no_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a refresh thread would make reproduce spawn its workers instead of forking them
+    import io
+    import threading
+
+    from slidingarm import cli
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    monkeypatch.setattr(sys, "stdout", Terminal())
+    before = threading.active_count()
+    with cli._progress() as update:
+        assert update is not None
+        update("simulating", 1, 4)
+        assert threading.active_count() == before
 
 
 # ---------------------------------------------------------------- 4: one run at a time

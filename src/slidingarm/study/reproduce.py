@@ -24,6 +24,7 @@ import multiprocessing
 import os
 import platform
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -45,6 +46,9 @@ from slidingarm.study.output import Staging, csv_bytes
 from slidingarm.study.shipped import SCENARIOS, load_shipped
 
 if TYPE_CHECKING:
+    from multiprocessing.context import BaseContext
+    from types import FrameType
+
     from slidingarm.study.paper import ScenarioKind
 
 __all__ = ["Progress", "StudyOutput", "reproduce", "run", "run_scenario", "scenario_kind"]
@@ -142,11 +146,13 @@ class _Steps:
         self.done = 0
 
     def __call__(self, what: str, n: int = 1) -> None:
+        _check_terminated()
         self.done = min(self.done + n, self.total)
         if self.progress is not None:
             self.progress(what, self.done, self.total)
 
     def start(self, what: str) -> None:
+        _check_terminated()
         if self.progress is not None:
             self.progress(what, self.done, self.total)
 
@@ -315,17 +321,26 @@ class _Ending:
 
 class _Termination:
     """SIGTERM as Ctrl-C (see :func:`_terminate_as_interrupt`), held back while a worker process
-    is being started: interrupting its start leaves a child that prints a traceback."""
+    is being started (interrupting its start leaves a child that prints a traceback) and while
+    compiled code has called back into Python (numba's compiler, through llvmlite: an
+    exception raised there is printed and dropped, and the run would go on); a held-back
+    SIGTERM interrupts at the study's next step (:meth:`check`)."""
 
     def __init__(self) -> None:
         self.holding = 0
         self.pending = False
 
-    def handler(self, signum: int, frame: object) -> None:
-        if self.holding:
+    def handler(self, signum: int, frame: FrameType | None) -> None:
+        if self.holding or _in_callback(frame):
             self.pending = True
             return
         self.interrupt()
+
+    def check(self) -> None:
+        """Interrupt now if a SIGTERM was held back and nothing holds it any more."""
+        if self.pending and not self.holding:
+            self.pending = False
+            self.interrupt()
 
     def interrupt(self) -> None:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second one during the clean-up
@@ -339,13 +354,39 @@ class _Termination:
             yield
         finally:
             self.holding -= 1
-        if not self.holding and self.pending:
-            self.pending = False
-            self.interrupt()
+        self.check()
+
+
+def _in_callback(frame: FrameType | None) -> bool:
+    """Whether ``frame`` runs inside a callback from llvmlite's compiled code (a ctypes
+    callback drops the exceptions raised in it)."""
+    while frame is not None:
+        if str(frame.f_globals.get("__name__", "")).startswith("llvmlite."):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _check_terminated() -> None:
+    """Interrupt now if a SIGTERM was held back (see :class:`_Termination`)."""
+    if _TERMINATION is not None and threading.current_thread() is threading.main_thread():
+        _TERMINATION.check()
 
 
 #: The handler in force, if any (only one run installs it at a time: the main thread's).
 _TERMINATION: _Termination | None = None
+
+
+def _default_sigterm_in_child() -> None:
+    """In a process forked during a study (a figure worker), SIGTERM ends the process again:
+    the handler it inherited is the study's, for the study's own clean-up."""
+    if _TERMINATION is not None:
+        with suppress(ValueError):  # forked from another thread: it keeps the inherited one
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_default_sigterm_in_child)
 
 
 @contextmanager
@@ -409,6 +450,22 @@ _FIGURE_COST: dict[str, float] = {
     "steady_state": 2.0,
     "tracking_joint1": 1.0,
 }
+
+
+def _worker_context() -> BaseContext:
+    """How the figure workers start: forked from this process on Linux when it runs no other
+    thread, spawned (a fresh interpreter) otherwise.
+
+    A forked worker starts with this process's imports (numba, the package) and, on a cold
+    cache, the compilation it has done (:func:`slidingarm._engine.prime`): a spawned one
+    imports all of that again, about 1 CPU-s per worker, on a study that keeps both cores busy
+    from start to end (``benchmarks/bench_reproduce.py``). A fork copies the locks other threads
+    may hold at that moment, so with another thread running (an application's, or a progress
+    bar that refreshes itself), and where fork is not the safe default (macOS, Windows), the
+    workers are spawned."""
+    if sys.platform.startswith("linux") and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    return multiprocessing.get_context("spawn")
 
 
 def _default_jobs() -> int:
@@ -541,7 +598,9 @@ def reproduce(
         The command line to record in the manifest and report.
     jobs : int, optional
         Processes drawing the figures while the main process computes (default: up to 3,
-        bounded by the CPU count); 1 draws them in this process. The workers run at a lower
+        bounded by the CPU count); 1 draws them in this process. On Linux, in a process that
+        runs no other thread, the workers are forked from it, else spawned
+        (:func:`_worker_context`). The workers run at a lower
         priority (:data:`slidingarm.plotting._worker.WORKER_NICENESS`), so that their start-up
         does not slow this process's compilation. A worker ends when this process dies, even
         by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
@@ -594,11 +653,14 @@ def _reproduce(
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
         parts: list[cf.Future[None]] = []
         cold = not E.loop_cached()
+        start = _worker_context()
+        if workers and cold and start.get_start_method() == "fork":
+            E.prime()  # once here, inherited by both workers
         if workers:
             with _starting_workers():
                 pool = cf.ProcessPoolExecutor(
                     max_workers=workers,
-                    mp_context=multiprocessing.get_context("spawn"),
+                    mp_context=start,
                     initializer=_worker.init_worker,
                     initargs=(os.getpid(),),
                 )
@@ -737,6 +799,7 @@ def _reproduce(
             }
         )
         files = staging.files()
+        _check_terminated()
         staging.publish()
         if ending is not None:
             ending.join()
