@@ -249,3 +249,24 @@ def test_a_results_folder_does_not_hide_a_shipped_scenario(
     code, _, err = invoke("validate", "mine")
     assert code == EXIT_USAGE
     assert "mine" in one_line_error(err)
+
+
+@pytest.mark.parametrize("flag", [[], ["--svg"]])
+def test_reproduce_saves_svg_on_request(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, flag: list[str]
+) -> None:
+    # --svg reaches the study (which also records it in the command of the manifest)
+    import slidingarm.study as study
+    from slidingarm.study.output import OutputError
+
+    seen: dict[str, object] = {}
+
+    def fake(out: Path, **kwargs: object) -> None:
+        seen.update(kwargs)
+        raise OutputError("stopped here")
+
+    monkeypatch.setattr(study, "reproduce", fake)
+    code, _, err = invoke("reproduce", "--out", str(tmp_path / "r"), *flag)
+    assert code != 0 and "stopped here" in err
+    assert seen["svg"] is bool(flag)
+    assert str(seen["command"]).endswith("--svg") is bool(flag)

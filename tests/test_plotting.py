@@ -290,6 +290,10 @@ def test_save_figure_writes_png_and_svg_atomically_and_deterministically(tmp_pat
     again = save_figure(plot_tracking(_results(2)), tmp_path / "b" / "fig.v1")
     assert again[1].read_bytes() == paths[1].read_bytes()
     assert again[0].read_bytes() == paths[0].read_bytes()
+    bare = save_figure(plot_tracking(_results(2)), tmp_path / "c" / "fig.v1", svg=False)
+    assert bare == [tmp_path / "c" / "fig.v1.png"]
+    assert [p.name for p in (tmp_path / "c").iterdir()] == ["fig.v1.png"]
+    assert bare[0].read_bytes() == paths[0].read_bytes()  # the PNG does not depend on it
 
 
 def test_save_figure_clears_the_figure(tmp_path: Path) -> None:

@@ -98,6 +98,9 @@ def test_figure_files_carry_the_papers_numbers(tmp_path: Path, runs: dict[str, s
     paths = render_figures("sign", runs, "A", tmp_path, only=("torque", "steady_state"))
     assert {p.name for p in paths.values()} == {"sign_fig05_torque.png", "sign_steady_state.png"}
     assert (tmp_path / "sign_fig05_torque.svg").is_file()
+    bare = render_figures("sign", runs, "A", tmp_path / "png", only=("torque",), svg=False)
+    assert bare == {"torque": tmp_path / "png" / "sign_fig05_torque.png"}
+    assert [p.name for p in (tmp_path / "png").iterdir()] == ["sign_fig05_torque.png"]
 
 
 class _Anchors(HTMLParser):

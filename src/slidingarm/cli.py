@@ -181,18 +181,26 @@ def reproduce(
         ),
     ] = 0,
     overwrite: Annotated[bool, typer.Option("--overwrite", help=_OVERWRITE_HELP)] = False,
+    svg: Annotated[
+        bool,
+        typer.Option(
+            "--svg", help="Also save every figure as SVG (the report shows the PNGs; slower)."
+        ),
+    ] = False,
 ) -> None:
     """Regenerate the study: 3 scenarios × 3 controllers, CSVs, metrics, figures, report."""
     from slidingarm.study import reproduce as run_study
 
     words: list[object] = ["--out", out, *(["--jobs", jobs] if jobs else [])]
+    flags = [*(["--overwrite"] if overwrite else []), *(["--svg"] if svg else [])]
     with _errors(), _progress() as progress:
         result = run_study(
             out,
             progress=progress,
-            command=_command("reproduce", *words, *(["--overwrite"] if overwrite else [])),
+            command=_command("reproduce", *words, *flags),
             jobs=jobs or None,
             overwrite=overwrite,
+            svg=svg,
         )
     _report_kept(result.kept, out)
     typer.echo(f"wrote {out} ({len(result.files)} files) in {result.runtime_s:.1f} s")

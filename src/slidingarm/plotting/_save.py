@@ -1,4 +1,5 @@
-"""Saving figures: PNG and SVG side by side, written atomically, SVG byte-identical on rerun."""
+"""Saving figures: PNG and (by default) SVG side by side, written atomically, SVG byte-identical
+on rerun."""
 
 from __future__ import annotations
 
@@ -20,8 +21,11 @@ __all__ = ["PNG_COMPRESS_LEVEL", "PNG_DPI", "save_figure"]
 PNG_COMPRESS_LEVEL = 1
 
 
-def save_figure(fig: Figure, stem: str | os.PathLike[str], *, clear: bool = True) -> list[Path]:
-    """Write ``fig`` to ``<stem>.png`` and ``<stem>.svg``, then close it.
+def save_figure(
+    fig: Figure, stem: str | os.PathLike[str], *, clear: bool = True, svg: bool = True
+) -> list[Path]:
+    """Write ``fig`` to ``<stem>.png`` and, with ``svg`` (default), ``<stem>.svg``, then close
+    it. Each format draws the whole figure again: the SVG is about a third of the saving time.
 
     Each file is rendered in memory and written through a temporary file and
     :func:`os.replace`, so a reader never sees a partial file and an interrupted save leaves
@@ -35,11 +39,11 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str], *, clear: bool = True
     Returns
     -------
     list of Path
-        ``[<stem>.png, <stem>.svg]``.
+        ``[<stem>.png, <stem>.svg]``, or ``[<stem>.png]`` without ``svg``.
     """
     stem = Path(stem)
     png = stem.parent / f"{stem.name}.png"
-    svg = stem.parent / f"{stem.name}.svg"
+    written = [png]
     with matplotlib.rc_context(RC):
         buf = io.BytesIO()
         fig.savefig(
@@ -50,13 +54,16 @@ def save_figure(fig: Figure, stem: str | os.PathLike[str], *, clear: bool = True
             pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL},
         )
         png_bytes = buf.getvalue()
-        buf = io.BytesIO()
-        fig.savefig(buf, format="svg", metadata={"Date": None})
-        svg_bytes = buf.getvalue()
+        if svg:
+            buf = io.BytesIO()
+            fig.savefig(buf, format="svg", metadata={"Date": None})
+            svg_bytes = buf.getvalue()
     atomic_write_bytes(png, png_bytes)
-    atomic_write_bytes(svg, svg_bytes)
+    if svg:
+        written.append(stem.parent / f"{stem.name}.svg")
+        atomic_write_bytes(written[1], svg_bytes)
     if "matplotlib.pyplot" in sys.modules:
         sys.modules["matplotlib.pyplot"].close(fig)
     if clear:
         fig.clear()
-    return [png, svg]
+    return written

@@ -77,7 +77,7 @@ def init_worker(parent: int) -> None:
     threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
 
 
-def warm_up(paper_law: bool = False) -> None:
+def warm_up(paper_law: bool = False, svg: bool = True) -> None:
     """Make a worker process ready for its first figure while the main process compiles and
     simulates: import the plotting stack and draw and save a small figure (in memory), which
     loads the fonts and fills matplotlib's caches; with ``paper_law``, first
@@ -85,7 +85,8 @@ def warm_up(paper_law: bool = False) -> None:
     a second warm-up task would go to whichever worker is free, the other one). The law comes
     first because it shares small kernels with the main process's loop (the model's
     ``sincos``): compiled and cached here early, the main process loads them instead of
-    compiling them (about 0.9 s of its compile measured, cold)."""
+    compiling them (about 0.9 s of its compile measured, cold). ``svg``: the figures will be
+    saved as SVG too, so the warm-up saves one."""
     if paper_law:
         compile_paper_law()
     import matplotlib
@@ -101,7 +102,8 @@ def warm_up(paper_law: bool = False) -> None:
         ax.set_title("warm-up — τ")
         ax.legend()
         fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
-        fig.savefig(io.BytesIO(), format="svg")
+        if svg:
+            fig.savefig(io.BytesIO(), format="svg")
 
 
 def compile_loop_part(index: int) -> None:
@@ -127,9 +129,10 @@ def draw(
     title: str,
     stems: Mapping[str, str | os.PathLike[str]],
     tool_paths: tuple[np.ndarray, Mapping[str, np.ndarray]] | None = None,
+    svg: bool = True,
 ) -> dict[str, Path]:
     """Draw the figures ``stems`` names (figure name → path without extension) of one
-    scenario's ``results`` and save each as ``<stem>.png`` and ``<stem>.svg``
+    scenario's ``results`` and save each as ``<stem>.png`` and, with ``svg``, ``<stem>.svg``
     (:func:`slidingarm.plotting.save_figure`); return figure name → PNG path, in the order
     of ``stems``. ``tool_paths`` as :func:`slidingarm.study.reproduce.render_figures`."""
     from slidingarm.plotting import save_figure, scenario_figures
@@ -142,6 +145,6 @@ def draw(
     paths: dict[str, Path] = {}
     for fig_name in only:
         # each figure is dropped once saved (not cleared: that would rebuild its ticks)
-        written = save_figure(figures.pop(fig_name), stems[fig_name], clear=False)
+        written = save_figure(figures.pop(fig_name), stems[fig_name], clear=False, svg=svg)
         paths[fig_name] = next(p for p in written if p.suffix == ".png")
     return paths

@@ -7,7 +7,8 @@ kept consistent)::
     convergence.csv chattering.csv errata.csv gain_grid.csv checks.csv   the report's tables
     <scenario>/<controller>.csv      every sample: t, q1.., qd1.., qref1.., qdref1.., qm1..,
                                      qdm1.., tau1.., s1..
-    figures/<scenario>_fig<NN>_<figure>.png and .svg  (NN: the paper's figure; a serial arm adds tool_path)
+    figures/<scenario>_fig<NN>_<figure>.png  (NN: the paper's figure; a serial arm adds
+                                     tool_path), and .svg with ``svg=True`` (``--svg``)
     config/<scenario>.toml           the exact scenario run, resolved and self-contained
     report.md report.html            the report (the HTML embeds its figures)
     manifest.json                    version, seeds, command, runtime, every file's SHA-256;
@@ -169,9 +170,11 @@ def render_figures(
     fig_dir: Path,
     only: Sequence[str] | None = None,
     tool_paths: tuple[np.ndarray, Mapping[str, np.ndarray]] | None = None,
+    *,
+    svg: bool = True,
 ) -> dict[str, Path]:
     """Draw and save the figures of one scenario (or ``only`` these) as
-    ``fig_dir/<name>_fig<NN>_<figure>.png/.svg`` (the paper's figure number, for the study's
+    ``fig_dir/<name>_fig<NN>_<figure>.png`` and, with ``svg``, ``.svg`` (the paper's figure number, for the study's
     scenarios; ``<name>_<figure>`` for a figure the paper does not have,
     :func:`slidingarm.study.paper_report.figure_stem`); return figure name → PNG path. ``tool_paths`` (a
     serial arm's ``(desired, {label: actual})``, :func:`slidingarm.study.analysis.tool_paths`)
@@ -185,7 +188,8 @@ def render_figures(
     wanted = names if only is None else tuple(only)
     # in the figures' own order; an unknown name is refused by scenario_figures
     order = [f for f in names if f in wanted] + [f for f in wanted if f not in names]
-    return draw(results, title, {f: fig_dir / figure_stem(name, f) for f in order}, tool_paths)
+    stems = {f: fig_dir / figure_stem(name, f) for f in order}
+    return draw(results, title, stems, tool_paths, svg=svg)
 
 
 def _stage_runs(
@@ -582,6 +586,7 @@ def reproduce(
     command: str | None = None,
     jobs: int | None = None,
     overwrite: bool = False,
+    svg: bool = False,
 ) -> StudyOutput:
     """Regenerate the whole study into ``out_dir`` (layout in the module docstring).
 
@@ -606,6 +611,10 @@ def reproduce(
         by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
     overwrite : bool
         Replace the results of other scenarios (a ``run`` of one's own) in ``out_dir``.
+    svg : bool
+        Also save every figure as SVG (default: PNG only). The report shows the PNGs; an SVG
+        draws its figure once more, about a third of the figures' CPU time and about a second
+        of a cold study on two cores (``benchmarks/bench_reproduce.py``).
 
     Raises
     ------
@@ -616,7 +625,7 @@ def reproduce(
     """
     with _terminate_as_interrupt():
         return _reproduce(
-            out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite
+            out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite, svg=svg
         )
 
 
@@ -627,6 +636,7 @@ def _reproduce(
     command: str | None,
     jobs: int | None,
     overwrite: bool,
+    svg: bool,
 ) -> StudyOutput:
     t0 = time.perf_counter()
     jobs = _default_jobs() if jobs is None else max(1, int(jobs))
@@ -671,9 +681,9 @@ def _reproduce(
                     parts = [
                         pool.submit(_worker.compile_loop_part, i) for i in range(len(E.LOOP_PARTS))
                     ]
-                paper_law = pool.submit(_worker.warm_up, True)
+                paper_law = pool.submit(_worker.warm_up, True, svg)
                 for _ in range(workers - 1):
-                    pool.submit(_worker.warm_up)
+                    pool.submit(_worker.warm_up, False, svg)
         setups = {name: s.build() for name, s in scenarios.items()}
         for part in parts:
             with suppress(Exception):  # a part a worker could not compile, the loop compiles
@@ -705,6 +715,8 @@ def _reproduce(
                             results[name],
                             _title(setup),
                             {figure: fig_dir / figure_stem(name, figure)},
+                            None,
+                            svg,
                         )
                     )
 
@@ -756,7 +768,7 @@ def _reproduce(
                 drawn = {k: p for future in futures[name] for k, p in future.result().items()}
                 paths = {k: drawn[k] for k in figures}  # in report order
             else:
-                paths = render_figures(name, results[name], _title(setup), fig_dir)
+                paths = render_figures(name, results[name], _title(setup), fig_dir, svg=svg)
             figure_paths[name] = {k: p.relative_to(staging.path) for k, p in paths.items()}
             steps(f"{name}: figures", len(figures))
         if pool is not None:
