@@ -52,4 +52,34 @@ def test_the_loop_loads_the_parts_another_process_compiled(tmp_path: Path) -> No
     assert out["after"] is True
     # the loop was compiled here, and each part it called was loaded, none compiled again
     assert out["stats"].pop("run_one") == [0, 1]
-    assert out["stats"] == {"sliding_mode_into": [1, 0], "rk4_step": [1, 0]}
+    # the law's callees came with the law: neither asked for by the loop's compilation
+    assert out["stats"] == {
+        "pow_abs": [0, 0], "tanh": [0, 0], "sliding_mode_into": [1, 0], "rk4_step": [1, 0]
+    }
+
+
+_COMPILE_CALLEES = """
+from slidingarm import _engine as E
+from slidingarm.control import _kernels as CK
+E.compile_part(0)
+E.compile_part(1)
+assert (E.LOOP_PARTS[0][0], E.LOOP_PARTS[1][0]) == (CK.pow_abs, CK.tanh)
+"""
+
+_COMPILE_LAW = """
+import json
+from slidingarm import _engine as E
+from slidingarm.control import _kernels as CK
+E.compile_part(2)
+print(json.dumps({d.py_func.__name__: [sum(d.stats.cache_hits.values()),
+                                       sum(d.stats.cache_misses.values())]
+                  for d in (CK.pow_abs, CK.tanh, CK.sliding_mode_into)}))
+"""
+
+
+@pytest.mark.slow  # two fresh processes compile the law's callees, then the law (about 4 s)
+def test_the_law_loads_the_callees_another_process_compiled(tmp_path: Path) -> None:
+    # what lets reproduce's two figure workers compile the law's pieces side by side
+    _python(_COMPILE_CALLEES, tmp_path)
+    stats = json.loads(_python(_COMPILE_LAW, tmp_path).strip().splitlines()[-1])
+    assert stats == {"pow_abs": [1, 0], "tanh": [1, 0], "sliding_mode_into": [0, 1]}
