@@ -367,6 +367,28 @@ def test_figure_worker_draws_the_figures_it_is_given_as_save_figure_does(tmp_pat
         draw(runs, "T", {"nope": tmp_path / "nope"})
 
 
+def test_the_study_and_its_report_never_load_matplotlib() -> None:
+    # the study's process writes tables and the report only (its forked workers draw): the
+    # figure names and controller styles come without matplotlib, the drawing loads it
+    code = (
+        "import sys\n"
+        "import slidingarm.plotting, slidingarm.plotting._worker, slidingarm.report\n"
+        "import slidingarm.study.reproduce, slidingarm.study.paper_report\n"
+        "from slidingarm.plotting import FIGURES, TOOL_FIGURES, controller_style\n"
+        "assert controller_style('ftsmc').label == 'FTSMC' and 'torque' in FIGURES\n"
+        "assert 'matplotlib' not in sys.modules, sorted(sys.modules)\n"
+        "from slidingarm.plotting import plot_tracking, save_figure\n"
+        "assert 'matplotlib' in sys.modules\n"
+        "try:\n"
+        "    slidingarm.plotting.plot_nothing\n"
+        "except AttributeError as exc:\n"
+        "    assert 'plot_nothing' in str(exc)\n"
+        "else:\n"
+        "    raise AssertionError('no error')\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
 def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> None:
     # what a worker imports to run its tasks; its initializer lowers its priority
     code = (

@@ -6,24 +6,62 @@ optional ``ax=`` and returns the :class:`~matplotlib.figure.Figure`; :func:`plot
 one tool path or several given as (T, 3) arrays; :func:`scenario_figures` makes the seven
 figures of one scenario of the study (and the tool path of a serial arm's) and
 :func:`save_figure` writes one as PNG and SVG.
+
+The names are loaded on first use: importing this package does not import matplotlib, and
+the figure names and controller styles (:mod:`slidingarm.plotting._catalog`) never do, so the
+study's tables and report are written by a process that never loads it.
 """
 
-from slidingarm.plotting._save import PNG_DPI, save_figure
-from slidingarm.plotting._style import REFERENCE_STYLE, LineStyle, controller_style
-from slidingarm.plotting.figures import (
-    FIGURES,
-    MAX_POINTS,
-    TOOL_FIGURES,
-    as_mapping,
-    plot_error,
-    plot_sliding,
-    plot_steady_state,
-    plot_tool_path,
-    plot_torque,
-    plot_tracking,
-    plot_velocity,
-    scenario_figures,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from slidingarm.plotting._catalog import (
+        FIGURES,
+        REFERENCE_STYLE,
+        TOOL_FIGURES,
+        LineStyle,
+        controller_style,
+    )
+    from slidingarm.plotting._save import PNG_DPI, save_figure
+    from slidingarm.plotting.figures import (
+        MAX_POINTS,
+        as_mapping,
+        plot_error,
+        plot_sliding,
+        plot_steady_state,
+        plot_tool_path,
+        plot_torque,
+        plot_tracking,
+        plot_velocity,
+        scenario_figures,
+    )
+
+#: Where each public name lives (its module in this package).
+_HOMES: dict[str, str] = {
+    **dict.fromkeys(
+        ("FIGURES", "REFERENCE_STYLE", "TOOL_FIGURES", "LineStyle", "controller_style"),
+        "_catalog",
+    ),
+    **dict.fromkeys(("PNG_DPI", "save_figure"), "_save"),
+    **dict.fromkeys(
+        (
+            "MAX_POINTS",
+            "as_mapping",
+            "plot_error",
+            "plot_sliding",
+            "plot_steady_state",
+            "plot_tool_path",
+            "plot_torque",
+            "plot_tracking",
+            "plot_velocity",
+            "scenario_figures",
+        ),
+        "figures",
+    ),
+}
 
 __all__ = [
     "FIGURES",
@@ -44,3 +82,16 @@ __all__ = [
     "save_figure",
     "scenario_figures",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{home}"), name)
+    globals()[name] = value  # later lookups find it directly
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -17,6 +16,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter
 from numpy.typing import NDArray
+
+from slidingarm.plotting._catalog import REFERENCE_STYLE, LineStyle, controller_style
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType
@@ -40,44 +41,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
-class LineStyle:
-    """How one controller (or the reference) is drawn."""
-
-    label: str
-    color: str
-    linestyle: Any
-    linewidth: float
-
-    def kwargs(self) -> dict[str, Any]:
-        """Keyword arguments for :meth:`matplotlib.axes.Axes.plot`."""
-        return {
-            "label": self.label,
-            "color": self.color,
-            "linestyle": self.linestyle,
-            "linewidth": self.linewidth,
-        }
-
-
-#: The paper's controllers and the extra ones of the package, by controller name. Lightness
-#: differs (blue dark, vermillion middle, orange light) so the lines also read in grey scale.
-_KNOWN: dict[str, LineStyle] = {
-    "pdsmc": LineStyle("PDSMC", "#E69F00", (0, (1.2, 1.2)), 1.9),
-    "tsmc": LineStyle("TSMC", "#D55E00", (0, (6.0, 1.6, 1.6, 1.6)), 1.5),
-    "ftsmc": LineStyle("FTSMC", "#0072B2", "solid", 1.5),
-    "ntsmc": LineStyle("NTSMC", "#CC79A7", (0, (3.5, 1.5)), 1.5),
-}
-
-#: Styles handed out, in order, to controllers not in the table above.
-_EXTRA: tuple[tuple[str, Any], ...] = (
-    ("#009E73", (0, (4.0, 1.5, 1.0, 1.5, 1.0, 1.5))),
-    ("#56B4E9", (0, (2.5, 1.0))),
-    ("#7F7F7F", (0, (8.0, 2.0))),
-    ("#882255", (0, (1.0, 2.0))),
-)
-
-#: The reference trajectory: dashed black, thin, drawn over the controllers.
-REFERENCE_STYLE = LineStyle("reference", "black", (0, (4.0, 2.5)), 1.0)
 
 #: Resolution of the PNG files: sharp on screen and in the HTML report, quick to render.
 PNG_DPI = 150
@@ -105,19 +68,6 @@ RC: dict[RcKeyType, Any] = {
     "svg.fonttype": "path",
     "savefig.dpi": PNG_DPI,
 }
-
-
-def controller_style(name: str, index: int = 0) -> LineStyle:
-    """The style of controller ``name``; unknown names get an extra style chosen by ``index``.
-
-    Known names (``pdsmc``, ``tsmc``, ``ftsmc``, ``ntsmc``, any case) always get the same
-    style, whatever their position; others are labelled with their name in upper case.
-    """
-    key = name.lower()
-    if key in _KNOWN:
-        return _KNOWN[key]
-    color, dash = _EXTRA[index % len(_EXTRA)]
-    return LineStyle(name.upper(), color, dash, 1.5)
 
 
 #: Fixed margins of the figures made here, in inches: a manual layout is as tidy as a layout

@@ -27,14 +27,19 @@ from matplotlib.ticker import NullLocator
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm.metrics import DEFAULT_WINDOW
+from slidingarm.plotting._catalog import (
+    FIGURES,
+    REFERENCE_STYLE,
+    SMOOTH_SECONDS,
+    TOOL_FIGURES,
+    LineStyle,
+    controller_style,
+)
 from slidingarm.plotting._style import (
     RC,
-    REFERENCE_STYLE,
-    LineStyle,
     PowerOfTenFormatter,
     band_limits,
     bottom_panels,
-    controller_style,
     envelope,
     frame,
     panels,
@@ -70,19 +75,6 @@ LAYOUTS: tuple[str, ...] = ("overlay", "columns")
 Results = SimResult | Mapping[str, SimResult]
 AxesArg = Axes | Sequence[Axes] | None
 
-#: The figures of one scenario, in report order (keys of :func:`scenario_figures`).
-FIGURES: tuple[str, ...] = (
-    "tracking_all",
-    "tracking_joint1",
-    "torque",
-    "sliding",
-    "velocity",
-    "error",
-    "steady_state",
-)
-
-#: The figures a serial arm's scenario adds to :data:`FIGURES` (given its tool paths).
-TOOL_FIGURES: tuple[str, ...] = ("tool_path",)
 
 #: The projections of :func:`plot_tool_path`: (horizontal, vertical) coordinate of the root frame.
 _PROJECTIONS: tuple[tuple[int, int], ...] = ((0, 1), (0, 2), (1, 2))
@@ -95,10 +87,6 @@ MAX_POINTS = 2400
 _TIME_LABEL = "time t (s)"
 _SINGLE_JOINT_HEIGHT = 3.6
 
-#: Width (s) of the moving mean drawn over a chattering signal (see ``_draw``): 10 samples at
-#: the paper's 0.5 ms, which averages out switching at the sample rate but is short against
-#: the arm's motion (reaching times of order 0.1 s).
-SMOOTH_SECONDS = 5e-3
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -28,8 +28,7 @@ from slidingarm.metrics import (
     DEFAULT_WINDOW,
     METRIC_COLUMNS,
 )
-from slidingarm.plotting import FIGURES
-from slidingarm.plotting.figures import SMOOTH_SECONDS
+from slidingarm.plotting._catalog import FIGURES, SMOOTH_SECONDS
 from slidingarm.report import Block, FigureBlock, write_blocks
 from slidingarm.report._format import (
     COLUMN_LABELS,
