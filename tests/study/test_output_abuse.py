@@ -346,17 +346,27 @@ other.start()
 beside = _worker_context().get_start_method()
 release.set()
 other.join()
-print(alone, beside)
+import numba, numpy as np
+@numba.njit(parallel=True)
+def total(x):
+    s = 0.0
+    for i in numba.prange(x.shape[0]):
+        s += x[i]
+    return s
+assert total(np.ones(64)) == 64.0 and threading.active_count() == 1
+after_parallel = _worker_context().get_start_method()  # numba's threads are not Python's
+print(alone, beside, after_parallel)
 """
 
 
 @pytest.mark.skipif(not LINUX, reason="workers are forked on Linux only")
 def test_workers_are_forked_only_from_a_process_running_no_other_thread() -> None:
-    # a fork copies the locks another thread may hold: with one running, workers are spawned
+    # a fork copies the locks another thread may hold: with one running (a Python thread, or
+    # numba's threading layer after a parallel batch), workers are spawned
     done = subprocess.run(
         [sys.executable, "-c", _CONTEXT], capture_output=True, text=True, check=True
     )
-    assert done.stdout.split() == ["fork", "spawn"], done.stderr
+    assert done.stdout.split() == ["fork", "spawn", "spawn"], done.stderr
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs os.fork")

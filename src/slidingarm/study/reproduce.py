@@ -465,9 +465,14 @@ def _worker_context() -> BaseContext:
     imports all of that again, about 1 CPU-s per worker, on a study that keeps both cores busy
     from start to end (``benchmarks/bench_reproduce.py``). A fork copies the locks other threads
     may hold at that moment, so with another thread running (an application's, or a progress
-    bar that refreshes itself), and where fork is not the safe default (macOS, Windows), the
-    workers are spawned."""
-    if sys.platform.startswith("linux") and threading.active_count() == 1:
+    bar that refreshes itself) or once numba's threading layer has started its threads (a
+    parallel batch ran in this process: they are not Python threads), and where fork is not the
+    safe default (macOS, Windows), the workers are spawned."""
+    from numba.np.ufunc import parallel
+
+    # numba's own flag (private: if it moves, assume its threads run)
+    numba_threads = getattr(parallel, "_is_initialized", True)
+    if sys.platform.startswith("linux") and threading.active_count() == 1 and not numba_threads:
         return multiprocessing.get_context("fork")
     return multiprocessing.get_context("spawn")
 
