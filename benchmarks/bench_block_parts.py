@@ -7,7 +7,7 @@ time loop, a read of the processor's time-stamp counter (LLVM's ``readcyclecount
 ``rdtsc`` on x86), then compiles that copy with the SLP vectoriser on, as
 :func:`slidingarm._block.compiled` compiles the kernel itself. It runs ``simulate_batch`` on
 the paper's arm (FTSMC with sign switching, ``record="metrics"``, 4.5 s at 5e-4 s, one thread)
-through the copy and prints, per phase, the counter ticks per block step (eight runs advanced
+through the copy and prints, per phase, the counter ticks per block step (``W`` runs advanced
 one sample), their share, and the wall time per arm-step of the whole batch (the Python part
 included: the staging of each block, ``finish_metrics`` and its FFT). The phases:
 
@@ -145,7 +145,7 @@ def main() -> None:
         f"median of {args.repeats}"
     )
     print(f"wall: {np.median(walls) / (args.runs * 9000) * 1e9:.0f} ns per arm-step (all of it)")
-    print("ticks per block step (8 runs, one sample) by phase:")
+    print(f"ticks per block step ({BK.W} runs, one sample) by phase:")
     for (name, _), v in zip(PHASES, per, strict=True):
         print(f"  {name:8s} {v:8.0f}  {100 * v / per.sum():5.1f} %")
     print(f"  {'total':8s} {per.sum():8.0f}")

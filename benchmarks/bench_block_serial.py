@@ -2,10 +2,10 @@
 
 Run as ``python benchmarks/bench_block_serial.py [--robot ur5|panda] [--iters N] [--repeats R]``.
 
-It loads the robot's eight copies into a block workspace (one lane each, the joints at
+It loads ``W`` copies of the robot into a block workspace (one lane each, the joints at
 different angles), then times, each compiled in a loop of its own with the SLP vectoriser on
 (as :func:`slidingarm._block.compiled` compiles the kernel), the pieces of a block step of
-:mod:`slidingarm._block`'s serial kind, in nanoseconds per block (eight runs):
+:mod:`slidingarm._block`'s serial kind, in nanoseconds per block (``W`` runs, :data:`slidingarm._block.W`):
 
 * ``rk4``: one RK4 step (:func:`~slidingarm._block._rk4_serial`): four forward dynamics;
 * ``forward``: one forward dynamics (:func:`~slidingarm._block._serial_forward`), split into
@@ -14,7 +14,7 @@ different angles), then times, each compiled in a loop of its own with the SLP v
 * ``law``: the model law's torque (:func:`~slidingarm._block._serial_torque`: kinematics and
   Newton-Euler at the measurement);
 
-and per arm-step (a block's time over eight). Each figure is the median of ``--repeats``
+and per arm-step (a block's time over ``W``). Each figure is the median of ``--repeats``
 timings of ``--iters`` calls. The loop kernels are compiled here (``cache=False``): the first
 run takes a minute or so.
 """

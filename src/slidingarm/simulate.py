@@ -705,9 +705,10 @@ def memory_estimate(
 
     On the block path (``block``; by default whenever :math:`B \\ge` :data:`BLOCK_MIN_RUNS`,
     the runs of planar or serial arms under a built-in law) the per-thread term is instead
-    :math:`8\\,P\\,T n \\cdot 68`: a block's sensor and disturbance arrays for its eight lanes,
-    their per-run temporaries, and its torque traces with the temporaries of their
-    ``hf_power_share`` (measured peaks: 12 to 59 such :math:`8 T n` units per thread).
+    :math:`8\\,P\\,T n \\cdot 68\\,W/8`: a block's sensor and disturbance arrays for its
+    :data:`~slidingarm._block.W` lanes, their per-run temporaries, and its torque traces with
+    the temporaries of their ``hf_power_share`` (measured peaks with eight lanes: 12 to 59
+    such :math:`8 T n` units per thread; they grow with the lanes).
     """
     if record == "full":
         kept = samples
@@ -721,7 +722,9 @@ def memory_estimate(
     if block is None:
         block = runs >= BLOCK_MIN_RUNS
     if block:
-        work = 8 * threads * samples * joints * 68
+        from slidingarm._block import W as lanes
+
+        work = 8 * threads * samples * joints * 68 * lanes // 8
     else:
         work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
     return grid + traces + work
@@ -793,7 +796,7 @@ def simulate_batch(
         that memory stays O(B n) beyond a bounded working set.
     block : bool or None
         Which loop runs the batch. ``None`` (default): the block path
-        (:mod:`slidingarm._block`, eight runs advanced together) when every run is a planar
+        (:mod:`slidingarm._block`, 16 runs advanced together) when every run is a planar
         arm, or every run a serial arm, under a built-in sliding-mode law with a nominal model
         of the same kind, and :math:`B \\ge` :data:`BLOCK_MIN_RUNS`; else the per-run loop. A
         planar run is bit-identical on both paths; a serial one agrees to rounding (the block
