@@ -351,9 +351,12 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
         )  # fmt: skip
 
 
-#: The smallest batch the block path (:mod:`slidingarm._block`) takes: below two blocks its
-#: padding and staging outweigh what the lanes save (benchmarks/bench_batch.py).
-BLOCK_MIN_RUNS = 2 * 8
+#: The smallest batch the block path (:mod:`slidingarm._block`) takes by default: one block
+#: (:data:`slidingarm._block.W` = 16 lanes). Compiled, the block path is faster from a single
+#: block on (paper arm, metrics, 4.5 s, 2 threads: 3.5x the per-run loop at 8 runs, 6.7-7.9x
+#: at 16-32); the bound keeps a few runs on the per-run loop, which single runs have compiled
+#: already, rather than have them wait for the block kernel's first compilation (15-35 s).
+BLOCK_MIN_RUNS = 16
 
 #: Blocks per unit of work of a thread on the block path.
 BLOCK_CHUNK = 4
