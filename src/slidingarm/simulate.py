@@ -708,10 +708,10 @@ def memory_estimate(
 
     On the block path (``block``; by default whenever :math:`B \\ge` :data:`BLOCK_MIN_RUNS`,
     the runs of planar or serial arms under a built-in law) the per-thread term is instead
-    :math:`8\\,P\\,T n \\cdot 68\\,W/8`: a block's sensor and disturbance arrays for its
-    :data:`~slidingarm._block.W` lanes, their per-run temporaries, and its torque traces with
-    the temporaries of their ``hf_power_share`` (measured peaks with eight lanes: 12 to 59
-    such :math:`8 T n` units per thread; they grow with the lanes).
+    :math:`8\\,P\\,T n\\,(56 + 1.5\\,W)` with :math:`W` = :data:`~slidingarm._block.W` lanes
+    a block: a block's sensor and disturbance arrays for its lanes, their per-run temporaries,
+    and its torque traces with the temporaries of their ``hf_power_share`` (measured peaks:
+    12 to 59 such :math:`8 T n` units per thread with 8 lanes, 70 to 72 with 16).
     """
     if record == "full":
         kept = samples
@@ -727,7 +727,7 @@ def memory_estimate(
     if block:
         from slidingarm._block import W as lanes
 
-        work = 8 * threads * samples * joints * 68 * lanes // 8
+        work = 8 * threads * samples * joints * (56 + 3 * lanes // 2)
     else:
         work = 8 * threads * samples * joints * (6 + (14 * chunk if kept < samples else 0))
     return grid + traces + work
