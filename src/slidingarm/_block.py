@@ -766,14 +766,13 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
         if swcode == CK.SWITCH_TANH:
             for ln in range(W):
                 ws[o + _TMP + ln] = tanh(ws[o + _S + ln] / ws[o + _CFW + ln])
-        else:
-            sign = swcode == CK.SWITCH_SIGN
+        elif swcode == CK.SWITCH_SIGN:
+            # the switching code is the block's (uniform): sign switching skips sat's division
             for ln in range(W):
-                s = ws[o + _S + ln]
-                x = s / ws[o + _CFW + ln]
-                sat = _clamp(x, -1.0, 1.0)
-                sg = _sgn(s)
-                ws[o + _TMP + ln] = sg if sign else sat
+                ws[o + _TMP + ln] = _sgn(ws[o + _S + ln])
+        else:
+            for ln in range(W):
+                ws[o + _TMP + ln] = _clamp(ws[o + _S + ln] / ws[o + _CFW + ln], -1.0, 1.0)
         qddr = qdd_ref[k, j]
         if classic:
             for ln in range(W):
