@@ -404,11 +404,11 @@ _M = types.float64[:, ::1]
 #: compile into numba's cache in any process: :func:`compile_part` in other processes, and
 #: then a process compiling the loop loads them from the cache, so that its own first
 #: compilation is about 3 CPU-s. :func:`slidingarm.study.reproduce` has its two figure workers
-#: take them in this order as each comes free: one compiles ``|x|^g`` then the law, whose
-#: compilation finds the ``tanh`` the other compiled meanwhile (it compiles it itself if that
-#: one is late); the other compiles ``tanh`` then the RK4 step. Split so, the longest of the
-#: two is about 1.9 CPU-s instead of the law's 2.8 with its two callees (measured cold, one
-#: at a time). Tests check that the law's compilation finds the two callees cached, and the
+#: take them in this order as each comes free: both start at once on ``|x|^g`` and ``tanh``;
+#: the first done takes the law, whose compilation finds the other's callee in the cache (or
+#: compiles it itself if the other is late), and the second the RK4 step. Split so, the
+#: longest of the two is about 1.9 CPU-s instead of the law's 2.8 with its two callees
+#: (measured cold, one at a time). Tests check that the law's compilation finds the two callees cached, and the
 #: loop's the law and the step.
 LOOP_PARTS: tuple[tuple[Any, Any], ...] = (
     (CK.pow_abs, types.float64(types.float64, types.float64)),
@@ -430,10 +430,10 @@ def compile_part(index: int) -> None:
 
 
 def prime() -> None:
-    """Do in this process what every part of :data:`LOOP_PARTS` and the paper's law would each
-    do first: numba's own set-up of its first compilation in a process, and the model's
-    :func:`~slidingarm.models._kernels.sincos`, which all of them call (about 0.3 CPU-s each,
-    cold). Worker processes forked after this inherit both instead of each repeating them
+    """Do in this process what each process compiling :data:`LOOP_PARTS` or the paper's law
+    would do first: numba's own set-up of its first compilation in a process (about 0.4 CPU-s),
+    and the model's :func:`~slidingarm.models._kernels.sincos`, which the law, the RK4 step and
+    the paper's law call (about 0.3 CPU-s, cold). Worker processes forked after this inherit both instead of each repeating them
     (:func:`slidingarm.study.reproduce`); nothing to compile if the cache holds it."""
     PK.sincos.compile((types.float64,))
 

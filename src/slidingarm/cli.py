@@ -98,12 +98,13 @@ def _errors() -> Iterator[None]:
 
 
 @contextmanager
-def _progress() -> Iterator[Callable[[str, int, int], None] | None]:
+def _progress(*, thread: bool = True) -> Iterator[Callable[[str, int, int], None] | None]:
     """A rich progress bar on stderr when stdout is a terminal; otherwise no callback.
 
-    The bar is redrawn at each step rather than by a thread of its own (``auto_refresh``
-    off): a process running no other thread can fork its workers
-    (:func:`slidingarm.study.reproduce`), which starts them about a second sooner."""
+    Without ``thread`` the bar is redrawn at each step rather than by a thread of its own
+    (``auto_refresh`` off; its clock then moves by steps): a process running no other thread
+    can fork its workers (:func:`slidingarm.study.reproduce`), which starts them about a second
+    sooner."""
     if not sys.stdout.isatty():
         yield None
         return
@@ -117,7 +118,7 @@ def _progress() -> Iterator[Callable[[str, int, int], None] | None]:
         TimeElapsedColumn(),
         console=Console(stderr=True),
         transient=True,
-        auto_refresh=False,
+        auto_refresh=thread,
     )
     task = bar.add_task("starting", total=None)
 
@@ -193,7 +194,7 @@ def reproduce(
 
     words: list[object] = ["--out", out, *(["--jobs", jobs] if jobs else [])]
     flags = [*(["--overwrite"] if overwrite else []), *(["--svg"] if svg else [])]
-    with _errors(), _progress() as progress:
+    with _errors(), _progress(thread=False) as progress:
         result = run_study(
             out,
             progress=progress,

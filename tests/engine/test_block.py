@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import slidingarm as sa
+from slidingarm import _block as BK
 from slidingarm.metrics import METRIC_COLUMNS
 
 S = importlib.import_module("slidingarm.simulate")
@@ -73,10 +74,11 @@ def test_the_block_policy_names_why_a_batch_cannot_take_the_block_path() -> None
 
 @pytest.fixture(scope="module", params=["sign", "tanh"])
 def paper_pair(request: pytest.FixtureRequest) -> Iterator[tuple[sa.BatchResult, sa.BatchResult]]:
-    """The paper's arm and FTSMC with noise and a dirty derivative, 12 runs (a full block and
-    a padded one), on both paths."""
+    """The paper's arm and FTSMC with noise and a dirty derivative, ``W + 4`` runs (a full
+    block and a padded one), on both paths."""
+    nb = BK.W + 4
     kw = dict(
-        q0=q0s(12), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(40, 52)),
+        q0=q0s(nb), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(40, 40 + nb)),
     )  # fmt: skip
     ctrl = ftsmc(request.param)
     yield run("block", ARM, ctrl, REF, **kw), run("scalar", ARM, ctrl, REF, **kw)
@@ -94,11 +96,12 @@ def test_block_runs_equal_the_scalar_runs(paper_pair: tuple[sa.BatchResult, sa.B
 
 
 def test_block_metrics_and_every_k_equal_the_scalar_ones() -> None:
-    ctrls = [ftsmc("tanh", k=float(k)) for k in np.linspace(15.0, 25.0, 10)]
+    nb = BK.W + 4  # a full block and a padded one
+    ctrls = [ftsmc("tanh", k=float(k)) for k in np.linspace(15.0, 25.0, nb)]
     kw = dict(
-        q0=q0s(10), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(10)),
-        disturbances=[[sa.SinusoidalTorque(0.5 + 0.1 * i, 3.0)] for i in range(10)],
-        torque_limit=[None if i % 3 else 40.0 for i in range(10)],
+        q0=q0s(nb), t_final=T_FINAL, dt=DT, sensor=NOISE, seeds=list(range(nb)),
+        disturbances=[[sa.SinusoidalTorque(0.5 + 0.1 * i, 3.0)] for i in range(nb)],
+        torque_limit=[None if i % 3 else 40.0 for i in range(nb)],
     )  # fmt: skip
     for record in ("metrics", sa.Every(7)):
         block = run("block", ARM, ctrls, REF, record=record, **kw)
@@ -136,7 +139,7 @@ def test_a_failing_lane_is_named_and_the_others_finish() -> None:
 
 
 def test_a_batch_does_not_depend_on_threads_blocks_or_lanes() -> None:
-    nb = 19
+    nb = 3 * BK.W + 3  # four blocks: on two threads, (2, 4) makes chunks of two blocks
     ctrls = [ftsmc("sign", k=float(k)) for k in np.linspace(15.0, 25.0, nb)]
     kw = dict(t_final=T_FINAL, dt=DT, sensor=NOISE, record="metrics")
     saved = (numba.config.NUMBA_NUM_THREADS, S.BLOCK_CHUNK)

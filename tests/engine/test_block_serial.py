@@ -163,7 +163,7 @@ def _ur5_batch(path: str, switching: str, *, noise: bool = True, ulp: bool = Fal
         ctrl = sa.FTSMC(
             st.nominal, alpha=2.0, beta=2.0, p=5, q=3, k=[10.0, 10.0, 20.0, 20.0, 10.0, 10.0]
         )
-    nb = kw.pop("nb", 12)
+    nb = kw.pop("nb", BK.W + 4)  # a full block and a padded one
     q0 = np.asarray(st.q0) + np.random.default_rng(5).normal(0.0, 0.02, (nb, UR5.n))
     if ulp:
         q0[:, 2] = np.nextafter(q0[:, 2], np.inf)
@@ -179,7 +179,7 @@ def _ur5_batch(path: str, switching: str, *, noise: bool = True, ulp: bool = Fal
 
 @pytest.mark.slow  # the UR5's block kernel (6 joints, serial) compiles for about 20 s
 def test_ur5_runs_on_the_block_path_agree_with_the_per_run_loop() -> None:
-    """12 UR5 runs (a full block and a padded one) under the shipped FTSMC (tanh switching, a
+    """``W + 4`` UR5 runs (a full block and a padded one) under the shipped FTSMC (tanh switching, a
     Lipschitz loop) with the effort limits, 1 s: every trace of every run within 1e-9 (rad,
     rad/s, N m) of the per-run loop's (measured: 2e-16 rad, 1.2e-10 N m), in full and in
     metrics mode (1e-9 relative)."""
@@ -221,16 +221,17 @@ def test_ur5_block_status_and_threads() -> None:
     """A run that runs away (a huge initial speed) is named with the same code, sample and
     joint on both paths and the others finish; the block path gives the same bits on 1 and
     2 threads and whichever lane and block a run lands in (the batch reversed)."""
-    one = _ur5_batch("block", "tanh", nb=10, threads=1)
-    two = _ur5_batch("block", "tanh", nb=10, threads=2)
-    back = _ur5_batch("block", "tanh", nb=10, order=np.arange(10)[::-1])
+    nb = BK.W + 4  # two blocks: one per thread on two
+    one = _ur5_batch("block", "tanh", nb=nb, threads=1)
+    two = _ur5_batch("block", "tanh", nb=nb, threads=2)
+    back = _ur5_batch("block", "tanh", nb=nb, order=np.arange(nb)[::-1])
     np.testing.assert_array_equal(one.q, two.q)
     np.testing.assert_array_equal(one.tau, two.tau)
     np.testing.assert_array_equal(one.q, back.q[::-1])
     np.testing.assert_array_equal(one.s, back.s[::-1])
-    kw = dict(qd0=np.where(np.arange(10)[:, None] == 4, 1e4, 0.0) * np.ones((10, UR5.n)))
-    fast_b = _ur5_batch("block", "tanh", nb=10, throw=False, **kw)
-    fast_s = _ur5_batch("scalar", "tanh", nb=10, throw=False, **kw)
+    kw = dict(qd0=np.where(np.arange(nb)[:, None] == 4, 1e4, 0.0) * np.ones((nb, UR5.n)))
+    fast_b = _ur5_batch("block", "tanh", nb=nb, throw=False, **kw)
+    fast_s = _ur5_batch("scalar", "tanh", nb=nb, throw=False, **kw)
     for name in ("status_code", "fail_time", "fail_joint"):
         np.testing.assert_array_equal(getattr(fast_b, name), getattr(fast_s, name), err_msg=name)
     assert fast_b.status_code[4] == E.STATUS_RUNAWAY

@@ -397,9 +397,12 @@ def test_a_sigterm_inside_a_compiler_callback_waits_for_the_next_step() -> None:
     import importlib
 
     R = importlib.import_module("slidingarm.study.reproduce")
-    scope: dict[str, object] = {"__name__": "llvmlite.binding.fake", "sys": sys}
-    exec("def callback():\n    return sys._getframe()", scope)
-    inside = scope["callback"]()  # type: ignore[operator]
+    scope: dict[str, object] = {"__name__": "llvmlite.binding.executionengine", "sys": sys}
+    exec("def _raw_object_cache_notify():\n    return sys._getframe()", scope)
+    inside = scope["_raw_object_cache_notify"]()  # type: ignore[operator]
+    elsewhere: dict[str, object] = {"__name__": "llvmlite.binding.ffi", "sys": sys}
+    exec("def __call__():\n    return sys._getframe()", elsewhere)
+    assert not R._in_callback(elsewhere["__call__"]())  # type: ignore[operator]
     termination = R._Termination()
     previous = signal.getsignal(signal.SIGTERM)
     try:
@@ -427,7 +430,7 @@ def test_the_progress_bar_runs_no_thread(monkeypatch: pytest.MonkeyPatch) -> Non
 
     monkeypatch.setattr(sys, "stdout", Terminal())
     before = threading.active_count()
-    with cli._progress() as update:
+    with cli._progress(thread=False) as update:  # reproduce's
         assert update is not None
         update("simulating", 1, 4)
         assert threading.active_count() == before

@@ -41,7 +41,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-
 #: Resolution of the PNG files: sharp on screen and in the HTML report, quick to render.
 PNG_DPI = 150
 

@@ -1,10 +1,11 @@
 """What a figure worker process of :func:`slidingarm.study.reproduce` runs.
 
 The functions a worker is handed (its initializer and its tasks) are pickled by reference, so
-the worker imports the module they live in. They live here, beside the plotting code and away
-from :mod:`slidingarm.study`, so that a worker imports only the package, matplotlib and the
-plotting code: not pandas, the scenario files' machinery nor the study's analyses (about 0.9 s
-of CPU per worker, spent on the core the main process does not use while it compiles).
+a spawned worker (not Linux, or a parent running other threads) imports the module they live
+in. They live here, beside the plotting code and away from :mod:`slidingarm.study`, so that
+such a worker imports only the package, matplotlib and the plotting code: not pandas, the
+scenario files' machinery nor the study's analyses (about 0.9 s of CPU per worker). A forked
+worker has its parent's modules already, and imports matplotlib at its first warm-up.
 """
 
 from __future__ import annotations
@@ -47,9 +48,10 @@ WORKER_NICENESS = 5
 
 
 def init_worker(parent: int) -> None:
-    """Initializer of a figure worker: lower its priority by :data:`WORKER_NICENESS` and end
-    it as soon as ``parent`` (the process that started it) dies, even by ``kill -9``, so that
-    no worker outlives an interrupted study.
+    """Initializer of a figure worker: restore SIGTERM's default action and the standard
+    streams (a forked worker inherits its parent's), lower its priority by
+    :data:`WORKER_NICENESS` and end it as soon as ``parent`` (the process that started it)
+    dies, even by ``kill -9``, so that no worker outlives an interrupted study.
 
     On Linux the kernel kills the worker when its parent dies (``prctl(PR_SET_PDEATHSIG,
     SIGKILL)``); everywhere a daemon thread also polls :func:`os.getppid`, which changes from
@@ -63,6 +65,11 @@ def init_worker(parent: int) -> None:
             pass
     if os.getppid() != parent:  # the parent died before the worker got here
         os._exit(1)
+    # a forked worker starts with its parent's state: SIGTERM's default action again (the
+    # parent may handle it, the study as Ctrl-C, an application its own way), and the real
+    # standard streams (a terminal's progress bar redirects them in the parent)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
     if hasattr(os, "nice"):  # before the thread below, which would keep the old priority
         try:
             os.nice(WORKER_NICENESS)
@@ -82,11 +89,11 @@ def warm_up(paper_law: bool = False, svg: bool = True) -> None:
     simulates: import the plotting stack and draw and save a small figure (in memory), which
     loads the fonts and fills matplotlib's caches; with ``paper_law``, first
     :func:`compile_paper_law` (one task, so that the worker that compiles it is warmed up too:
-    a second warm-up task would go to whichever worker is free, the other one). The law comes
-    first because it shares small kernels with the main process's loop (the model's
-    ``sincos``): compiled and cached here early, the main process loads them instead of
-    compiling them (about 0.9 s of its compile measured, cold). ``svg``: the figures will be
-    saved as SVG too, so the warm-up saves one."""
+    a second warm-up task would go to whichever worker is free, the other one). A spawned
+    worker compiles the law first because it shares small kernels with the main process's loop
+    (the model's ``sincos``), which the main process then loads; a forked one inherits them
+    (:func:`slidingarm._engine.prime`). ``svg``: the figures will be saved as SVG too, so the
+    warm-up saves one."""
     if paper_law:
         compile_paper_law()
     import matplotlib

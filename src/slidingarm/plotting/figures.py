@@ -88,7 +88,6 @@ _TIME_LABEL = "time t (s)"
 _SINGLE_JOINT_HEIGHT = 3.6
 
 
-
 # ---------------------------------------------------------------------------- helpers
 def as_mapping(results: Results) -> Mapping[str, SimResult]:
     """``results`` as ``{name: SimResult}``: a single run is keyed by its controller's name

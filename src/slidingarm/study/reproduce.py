@@ -28,6 +28,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
@@ -361,11 +362,17 @@ class _Termination:
         self.check()
 
 
+#: llvmlite's callbacks from compiled code (ctypes callbacks: an exception raised in them is
+#: printed and dropped), which numba's cache runs while it compiles.
+_CALLBACKS = frozenset({"_raw_object_cache_notify", "_raw_object_cache_getbuffer"})
+
+
 def _in_callback(frame: FrameType | None) -> bool:
-    """Whether ``frame`` runs inside a callback from llvmlite's compiled code (a ctypes
-    callback drops the exceptions raised in it)."""
+    """Whether ``frame`` runs inside one of llvmlite's callbacks (:data:`_CALLBACKS`)."""
     while frame is not None:
-        if str(frame.f_globals.get("__name__", "")).startswith("llvmlite."):
+        if frame.f_code.co_name in _CALLBACKS and str(
+            frame.f_globals.get("__name__", "")
+        ).startswith("llvmlite."):
             return True
         frame = frame.f_back
     return False
@@ -382,11 +389,11 @@ _TERMINATION: _Termination | None = None
 
 
 def _default_sigterm_in_child() -> None:
-    """In a process forked during a study (a figure worker), SIGTERM ends the process again:
-    the handler it inherited is the study's, for the study's own clean-up."""
+    """In a process forked during a study (a figure worker), SIGTERM ends the process again
+    from the fork on: the handler it inherited is the study's, for the study's own clean-up
+    (the worker's initializer also restores it, whatever handler it inherited)."""
     if _TERMINATION is not None:
-        with suppress(ValueError):  # forked from another thread: it keeps the inherited one
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 if hasattr(os, "register_at_fork"):
@@ -436,8 +443,8 @@ def _inputs(scenario: Scenario) -> list[Path]:
 
 def _figure_names(tool: bool = False) -> tuple[str, ...]:
     """The figures of one scenario, :data:`slidingarm.plotting.FIGURES`, and with ``tool`` (a
-    serial arm's) :data:`~slidingarm.plotting.TOOL_FIGURES` (this imports the plotting stack,
-    so it is called only when figures are drawn)."""
+    serial arm's) :data:`~slidingarm.plotting.TOOL_FIGURES` (names only: matplotlib is not
+    imported)."""
     from slidingarm.plotting import FIGURES, TOOL_FIGURES
 
     return FIGURES + (TOOL_FIGURES if tool else ())
@@ -458,16 +465,20 @@ _FIGURE_COST: dict[str, float] = {
 
 def _worker_context() -> BaseContext:
     """How the figure workers start: forked from this process on Linux when it runs no other
-    thread, spawned (a fresh interpreter) otherwise.
+    Python thread and numba's threading layer has not started, spawned (a fresh interpreter)
+    otherwise.
 
     A forked worker starts with this process's imports (numba, the package) and, on a cold
     cache, the compilation it has done (:func:`slidingarm._engine.prime`): a spawned one
     imports all of that again, about 1 CPU-s per worker, on a study that keeps both cores busy
     from start to end (``benchmarks/bench_reproduce.py``). A fork copies the locks other threads
-    may hold at that moment, so with another thread running (an application's, or a progress
-    bar that refreshes itself) or once numba's threading layer has started its threads (a
-    parallel batch ran in this process: they are not Python threads), and where fork is not the
-    safe default (macOS, Windows), the workers are spawned."""
+    may hold at that moment, so with another Python thread running (an application's, or a
+    progress bar that refreshes itself) or once numba's threading layer has started its threads
+    (the user's own parallel numba code ran in this process: they are not Python threads), and
+    where fork is not the safe default (macOS, Windows), the workers are spawned. Native pools
+    that register their own fork handlers may run (numpy's and scipy's OpenBLAS, pyarrow's
+    allocator, started by imports): Python 3.12's warning about forking a multi-threaded process
+    is silenced for this fork only."""
     from numba.np.ufunc import parallel
 
     # numba's own flag (private: if it moves, assume its threads run)
@@ -672,7 +683,11 @@ def _reproduce(
         if workers and cold and start.get_start_method() == "fork":
             E.prime()  # once here, inherited by both workers
         if workers:
-            with _starting_workers():
+            with _starting_workers(), warnings.catch_warnings():
+                # Python >= 3.12 warns on a fork beside native threads (see _worker_context)
+                warnings.filterwarnings(
+                    "ignore", message=r".*fork\(\) may lead to deadlocks", category=DeprecationWarning
+                )
                 pool = cf.ProcessPoolExecutor(
                     max_workers=workers,
                     mp_context=start,
