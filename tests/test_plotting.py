@@ -394,8 +394,13 @@ def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> 
     code = (
         "import os, sys\n"
         "from slidingarm.plotting import _worker\n"
+        "import io, signal\n"
         "before = os.nice(0)\n"
+        "signal.signal(signal.SIGTERM, lambda *a: None)\n"  # a parent's handler and streams,
+        "sys.stdout, sys.stderr = io.StringIO(), io.StringIO()\n"  # as a fork inherits them
         "_worker.init_worker(os.getppid())\n"
+        "assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL\n"
+        "assert sys.stdout is sys.__stdout__ and sys.stderr is sys.__stderr__\n"
         "_worker.warm_up()\n"
         "bad = [m for m in ('pandas', 'slidingarm.study', 'slidingarm.config') if m in sys.modules]\n"
         "assert not bad, bad\n"
