@@ -191,7 +191,7 @@ def test_ur5_runs_on_the_block_path_agree_with_the_per_run_loop() -> None:
                                    err_msg=name)  # fmt: skip
     a = _ur5_batch("block", "tanh", noise=False, record="metrics").metrics()
     b = _ur5_batch("scalar", "tanh", noise=False, record="metrics").metrics()
-    assert list(a.columns) == list(b.columns) and len(a) == 12 * (UR5.n + 1)  # joints and mean
+    assert list(a.columns) == list(b.columns) and len(a) == (BK.W + 4) * (UR5.n + 1)  # runs x (joints and mean)
     assert a[["run", "joint"]].equals(b[["run", "joint"]])
     values = [c for c in a.columns if c not in ("run", "joint")]
     np.testing.assert_allclose(a[values].to_numpy(float), b[values].to_numpy(float), rtol=1e-9,
