@@ -39,29 +39,9 @@ if TYPE_CHECKING:
         scenario_figures,
     )
 
-#: Where each public name lives (its module in this package).
-_HOMES: dict[str, str] = {
-    **dict.fromkeys(
-        ("FIGURES", "REFERENCE_STYLE", "TOOL_FIGURES", "LineStyle", "controller_style"),
-        "_catalog",
-    ),
-    **dict.fromkeys(("PNG_DPI", "save_figure"), "_save"),
-    **dict.fromkeys(
-        (
-            "MAX_POINTS",
-            "as_mapping",
-            "plot_error",
-            "plot_sliding",
-            "plot_steady_state",
-            "plot_tool_path",
-            "plot_torque",
-            "plot_tracking",
-            "plot_velocity",
-            "scenario_figures",
-        ),
-        "figures",
-    ),
-}
+#: The modules holding the public names, in the order they are looked in: the catalog first,
+#: which does not import matplotlib.
+_HOMES = ("_catalog", "_save", "figures")
 
 __all__ = [
     "FIGURES",
@@ -91,9 +71,9 @@ _SUBMODULES = frozenset({"figures", "sweep", "tune"})
 if not TYPE_CHECKING:  # for mypy, only the names imported above exist
 
     def __getattr__(name: str) -> Any:
-        home = _HOMES.get(name)
-        if home is not None:
-            value = getattr(importlib.import_module(f"{__name__}.{home}"), name)
+        if name in __all__:
+            homes = (importlib.import_module(f"{__name__}.{home}") for home in _HOMES)
+            value = next(getattr(m, name) for m in homes if hasattr(m, name))
         elif name in _SUBMODULES:
             value = importlib.import_module(f"{__name__}.{name}")
         else:
