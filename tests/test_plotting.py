@@ -390,9 +390,10 @@ def test_the_study_and_its_report_never_load_matplotlib() -> None:
 
 
 def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> None:
-    # what a worker imports to run its tasks; its initializer lowers its priority
+    # what a worker imports to run its tasks; its initializer lowers its priority and turns
+    # automatic garbage collection off, each task collecting what it left (slidingarm._gc)
     code = (
-        "import os, sys\n"
+        "import gc, os, sys\n"
         "from slidingarm.plotting import _worker\n"
         "import io, signal\n"
         "before = os.nice(0)\n"
@@ -401,7 +402,10 @@ def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> 
         "_worker.init_worker(os.getppid())\n"
         "assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL\n"
         "assert sys.stdout is sys.__stdout__ and sys.stderr is sys.__stderr__\n"
+        "assert not gc.isenabled()\n"  # a worker collects between its tasks, not during them
         "_worker.warm_up()\n"
+        "assert gc.collect(0) == 0\n"  # the warm-up figure's cycles were collected by the task
+        "assert not gc.isenabled()\n"
         "bad = [m for m in ('pandas', 'slidingarm.study', 'slidingarm.config') if m in sys.modules]\n"
         "assert not bad, bad\n"
         "assert os.nice(0) == min(before + _worker.WORKER_NICENESS, 19), os.nice(0)\n"

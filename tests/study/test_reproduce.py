@@ -3,6 +3,7 @@ atomicity of the output folder under failures."""
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import json
 import math
@@ -39,8 +40,18 @@ def study(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, StudyOutput]:
     """The study, reproduced once for the whole module."""
     out = tmp_path_factory.mktemp("study") / "results"
     seen: list[tuple[str, int, int]] = []
-    result = reproduce(out, progress=lambda what, done, total: seen.append((what, done, total)))
+    collecting: list[bool] = []
+
+    def progress(what: str, done: int, total: int) -> None:
+        seen.append((what, done, total))
+        collecting.append(gc.isenabled())
+
+    assert gc.isenabled()
+    result = reproduce(out, progress=progress)
     assert seen and seen[-1][1] == seen[-1][2], "progress reaches its total"
+    # no automatic garbage collection during the study (slidingarm._gc), and back after it
+    assert collecting and not any(collecting)
+    assert gc.isenabled()
     return out, result
 
 
@@ -362,6 +373,7 @@ def test_failure_mid_run_leaves_nothing(tmp_path: Path, monkeypatch: pytest.Monk
         reproduce(out, jobs=1)
     assert not out.exists()
     assert staging_dirs(tmp_path) == []
+    assert gc.isenabled()  # the collector's state restored on the way out too
 
 
 def test_interrupt_keeps_the_previous_results(

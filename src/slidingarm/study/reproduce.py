@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from slidingarm import _engine as E
+from slidingarm._gc import paused
 from slidingarm._version import __version__
 from slidingarm.config import Scenario, Setup
 from slidingarm.models.serial import SerialArm
@@ -639,7 +640,9 @@ def reproduce(
         other scenarios' results (without ``overwrite``), before any work; or if it holds a
         file this run must not replace.
     """
-    with _terminate_as_interrupt():
+    # no automatic garbage collection during the study (slidingarm._gc: about a sixth of the
+    # CPU of compiling the loop and of drawing, in this process and the workers it forks)
+    with _terminate_as_interrupt(), paused():
         return _reproduce(
             out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite, svg=svg
         )
