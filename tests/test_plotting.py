@@ -389,9 +389,10 @@ def test_the_study_and_its_report_never_load_matplotlib() -> None:
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> None:
+def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced(tmp_path: Path) -> None:
     # what a worker imports to run its tasks; its initializer lowers its priority and turns
-    # automatic garbage collection off, each task collecting what it left (slidingarm._gc)
+    # automatic garbage collection off, each figure task leaving nothing for a collection to
+    # find, in any generation (slidingarm._gc)
     code = (
         "import gc, os, sys\n"
         "from slidingarm.plotting import _worker\n"
@@ -402,12 +403,28 @@ def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced() -> 
         "_worker.init_worker(os.getppid())\n"
         "assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL\n"
         "assert sys.stdout is sys.__stdout__ and sys.stderr is sys.__stderr__\n"
-        "assert not gc.isenabled()\n"  # a worker collects between its tasks, not during them
+        "assert not gc.isenabled() and gc.get_freeze_count() > 0\n"
+        "from matplotlib.figure import Figure\n"
+        "def figures():\n"  # every Figure object left, frozen ones included
+        "    gc.unfreeze()\n"
+        "    found = [o for o in gc.get_objects() if isinstance(o, Figure)]\n"
+        "    gc.freeze()\n"
+        "    return found\n"
         "_worker.warm_up()\n"
-        "assert gc.collect(0) == 0\n"  # the warm-up figure's cycles were collected by the task
+        "assert not figures()\n"  # the warm-up figure was collected by the task, not frozen
         "assert not gc.isenabled()\n"
         "bad = [m for m in ('pandas', 'slidingarm.study', 'slidingarm.config') if m in sys.modules]\n"
         "assert not bad, bad\n"
         "assert os.nice(0) == min(before + _worker.WORKER_NICENESS, 19), os.nice(0)\n"
+        "import numpy as np\n"
+        "from slidingarm.results import SimResult\n"
+        "t = np.arange(400) * 5e-3\n"
+        "z = np.sin(t)[:, None] * np.ones((1, 3))\n"
+        "res = {'pdsmc': SimResult(t=t, q=z, qd=z, q_ref=z, qd_ref=z, q_meas=z, qd_meas=z,"
+        " tau=z, s=z, params={}, seed=None)}\n"
+        f"paths = _worker.draw(res, 'a run', {{'tracking_all': {str(tmp_path / 'fig')!r}}},"
+        " None, False)\n"
+        "assert paths['tracking_all'].is_file()\n"
+        "assert not figures()\n"  # and so was the figure task's
     )
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from slidingarm._gc import collect_young, freeze_and_hold
+from slidingarm._gc import after_task, hold_in_worker
 
 if TYPE_CHECKING:
     import numpy as np
@@ -84,10 +84,9 @@ def init_worker(parent: int) -> None:
         os._exit(1)
 
     threading.Thread(target=watch, name="slidingarm-watch-parent", daemon=True).start()
-    # what the worker has now is never garbage: no collection walks it again, and automatic
-    # collection is off (it was 15-20 % of a figure's drawing); each figure task collects
-    # its own leftovers when it ends (slidingarm._gc)
-    freeze_and_hold()
+    # automatic garbage collection off (it was 15-20 % of a figure's drawing): what the worker
+    # has now is frozen, and each figure task collects what it left (slidingarm._gc)
+    hold_in_worker()
 
 
 def warm_up(paper_law: bool = False, svg: bool = True) -> None:
@@ -118,7 +117,7 @@ def warm_up(paper_law: bool = False, svg: bool = True) -> None:
         if svg:
             fig.savefig(io.BytesIO(), format="svg")
     del fig, ax
-    collect_young()
+    after_task()  # the warm-up figure, and the paper's law's compilation before it
 
 
 def compile_loop_part(index: int) -> None:
@@ -163,5 +162,5 @@ def draw(
         written = save_figure(figures.pop(fig_name), stems[fig_name], clear=False, svg=svg)
         paths[fig_name] = next(p for p in written if p.suffix == ".png")
     # the dropped figures' cycles (automatic collection is off in a worker, init_worker)
-    collect_young()
+    after_task()
     return paths

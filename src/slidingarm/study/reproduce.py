@@ -625,7 +625,10 @@ def reproduce(
         (:func:`_worker_context`). The workers run at a lower
         priority (:data:`slidingarm.plotting._worker.WORKER_NICENESS`), so that their start-up
         does not slow this process's compilation. A worker ends when this process dies, even
-        by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C.
+        by ``kill -9``; SIGTERM (in the main thread) is handled as Ctrl-C. Python's automatic
+        garbage collection is off in this process while the study runs (its state is restored
+        after; other threads of the process run without it meanwhile) and in the workers,
+        which collect after each figure (:mod:`slidingarm._gc`).
     overwrite : bool
         Replace the results of other scenarios (a ``run`` of one's own) in ``out_dir``.
     svg : bool
