@@ -20,6 +20,7 @@ import math
 import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass
 from queue import SimpleQueue
 from typing import Any, Literal
@@ -29,6 +30,7 @@ from numba import config
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm import _engine as E
+from slidingarm._gc import paused
 from slidingarm._validate import MAX_POSITION, ParameterTypeError, _float, number_array
 from slidingarm._version import __version__
 from slidingarm.control.base import Controller
@@ -344,11 +346,14 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
             )  # fmt: skip
             continue
         ph = plant.handle
-        E.run_one(
-            ph.kind, np.array(ph.params), ph.g, law.code, law.entry.address, law.kernel.address, lp, lstate, model.kind,
-            mp, model.g, q0, qd0, t, qr, qdr, qddr, madd, mhold, int(vcode), vf, dist,
-            tmax, plan.dt, plan.substeps, plan.qd_limit, *outs, status[i], workspace,
-        )  # fmt: skip
+        # the first run in this process compiles the loop (or loads it from numba's cache):
+        # without automatic garbage collection meanwhile (slidingarm._gc)
+        with paused() if not E.run_one.signatures else nullcontext():
+            E.run_one(
+                ph.kind, np.array(ph.params), ph.g, law.code, law.entry.address, law.kernel.address, lp, lstate, model.kind,
+                mp, model.g, q0, qd0, t, qr, qdr, qddr, madd, mhold, int(vcode), vf, dist,
+                tmax, plan.dt, plan.substeps, plan.qd_limit, *outs, status[i], workspace,
+            )  # fmt: skip
 
 
 #: The smallest batch the block path (:mod:`slidingarm._block`) takes by default: one block
