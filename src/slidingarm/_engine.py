@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
+from slidingarm._gc import paused
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
 from slidingarm.models import _dispatch as MD
@@ -426,7 +427,8 @@ def compile_part(index: int) -> None:
     dispatcher, sig = LOOP_PARTS[index]
     # by its argument types alone: numba's cache keys an entry by what ``compile`` was given,
     # and the loop's typing asks for the argument types
-    dispatcher.compile(sig.args)
+    with paused():  # no automatic garbage collection while compiling (slidingarm._gc)
+        dispatcher.compile(sig.args)
 
 
 def prime() -> None:
@@ -435,7 +437,8 @@ def prime() -> None:
     and the model's :func:`~slidingarm.models._kernels.sincos`, which the law, the RK4 step and
     the paper's law call (about 0.3 CPU-s, cold). Worker processes forked after this inherit both instead of each repeating them
     (:func:`slidingarm.study.reproduce`); nothing to compile if the cache holds it."""
-    PK.sincos.compile((types.float64,))
+    with paused():
+        PK.sincos.compile((types.float64,))
 
 
 def loop_cached() -> bool:

@@ -17,6 +17,8 @@ from numba.core import cgutils
 from numba.core.types.function_type import WrapperAddressProtocol
 from numba.extending import intrinsic
 
+from slidingarm._gc import paused
+
 __all__ = ["FunctionPointer", "function_at"]
 
 
@@ -32,7 +34,8 @@ class FunctionPointer(WrapperAddressProtocol):
     def __init__(self, function: Any, signature: Any) -> None:
         from numba.experimental.function_type import _get_wrapper_address
 
-        function.compile(signature.args)
+        with paused():  # a compilation: no automatic garbage collection (slidingarm._gc)
+            function.compile(signature.args)
         self.function = function
         self._signature = signature
         self._address = int(_get_wrapper_address(function, signature))

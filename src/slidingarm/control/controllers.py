@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from slidingarm._gc import paused
 from slidingarm._validate import ParameterTypeError
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
@@ -124,7 +125,8 @@ def _checked_entry(c: SlidingModeController) -> Callable[..., int]:
     if not any(tuple(known) == sig for known in _evaluate_checked.signatures):
         _evaluate_checked.disable_compile(False)
         try:
-            _evaluate_checked.compile(sig)
+            with paused():  # no automatic garbage collection while compiling (slidingarm._gc)
+                _evaluate_checked.compile(sig)
         finally:
             _evaluate_checked.disable_compile(True)
     return cast("Callable[..., int]", _evaluate_checked.get_overload(sig))
