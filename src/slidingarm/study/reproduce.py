@@ -328,16 +328,15 @@ class _Ending:
 class _Termination:
     """SIGTERM as Ctrl-C (see :func:`_terminate_as_interrupt`), held back while a worker process
     is being started (interrupting its start leaves a child that prints a traceback) and while
-    compiled code has called back into Python (numba's compiler, through llvmlite: an
-    exception raised there is printed and dropped, and the run would go on); a held-back
-    SIGTERM interrupts at the study's next step (:meth:`check`)."""
+    numba's compiler runs llvmlite's Python code (:func:`_in_llvmlite`); a held-back SIGTERM
+    interrupts at the study's next step (:meth:`check`)."""
 
     def __init__(self) -> None:
         self.holding = 0
         self.pending = False
 
     def handler(self, signum: int, frame: FrameType | None) -> None:
-        if self.holding or _in_callback(frame):
+        if self.holding or _in_llvmlite(frame):
             self.pending = True
             return
         self.interrupt()
@@ -363,17 +362,14 @@ class _Termination:
         self.check()
 
 
-#: llvmlite's callbacks from compiled code (ctypes callbacks: an exception raised in them is
-#: printed and dropped), which numba's cache runs while it compiles.
-_CALLBACKS = frozenset({"_raw_object_cache_notify", "_raw_object_cache_getbuffer"})
-
-
-def _in_callback(frame: FrameType | None) -> bool:
-    """Whether ``frame`` runs inside one of llvmlite's callbacks (:data:`_CALLBACKS`)."""
+def _in_llvmlite(frame: FrameType | None) -> bool:
+    """Whether ``frame`` runs inside llvmlite's Python code (numba's compiler calls it). An
+    exception raised there is not safe: in a callback from compiled code (numba's cache's
+    ctypes callbacks) it is printed and dropped, and the run would go on; in the constructor
+    of one of its objects (a pass builder) it leaves the object half made, and its finalizer
+    prints a traceback when it is freed."""
     while frame is not None:
-        if frame.f_code.co_name in _CALLBACKS and str(
-            frame.f_globals.get("__name__", "")
-        ).startswith("llvmlite."):
+        if str(frame.f_globals.get("__name__", "")).startswith("llvmlite."):
             return True
         frame = frame.f_back
     return False
