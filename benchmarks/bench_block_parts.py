@@ -46,7 +46,7 @@ from slidingarm.references import PAPER_Q0
 #: The phases, each opened by the first line of the time loop that starts with its marker.
 PHASES = (
     ("measure", "        exact = _measure("),
-    ("law", "        _law(ws, n, k,"),
+    ("law", "        _law(ws, joints, k,"),
     ("clip", "        _clip(ws, n)"),
     ("record", "        if stride > 0 and k % stride == 0:"),
     ("metrics", "        if metrics:"),

@@ -26,7 +26,12 @@ on for this module's compilation only. The joint count ``n`` is a compile-time c
 (a kernel per joint count, :func:`compiled`): the loops over joints unroll, and what one
 joint's iteration leaves for the next stays in registers instead of the workspace. A lane
 loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those calls
-have loops of their own and the arithmetic around them still vectorises.
+have loops of their own and the arithmetic around them still vectorises. The two passes that
+hand many values from joint to joint, the plant's articulated-body algorithm and the nominal
+model's RNEA, have the other form: one lane loop whose body is the whole pass over the joints
+with its values in local variables (source generated per joint count, :func:`_aba_source`,
+:func:`_rnea_source`); LLVM's loop vectoriser turns it into ``<8 x double>`` code that keeps
+those values in registers instead of storing each to the workspace and loading it back.
 
 **Results.** For the planar kind, each lane computes exactly what
 :func:`~slidingarm._engine.run_one` computes for its run: the same floating-point operations in the same order, with the same elementary
@@ -127,32 +132,17 @@ def _clamp(x: float, lo: float, hi: float) -> float:
 
 # lane scalars: ws[_L_X + ln]
 _L_PHI = 0 * W
-_L_W = 1 * W
-_L_WD = 2 * W
-_L_AX = 3 * W
-_L_AY = 4 * W
-_L_FX = 5 * W
-_L_FY = 6 * W
-_L_MOM = 7 * W
-_L_OK = 8 * W
-_L_ALIVE = 9 * W
-_L_DELTA = 10 * W
-_L_FAR = 11 * W
-_L_BAD = 12 * W
-_L_CODE = 13 * W
-_L_JOINT = 14 * W
-_L_G = 15 * W
-_L_MG = 16 * W
-_L_T0 = 17 * W
-_L_T1 = 18 * W
-_L_T2 = 19 * W
-_L_T3 = 20 * W
-_L_T4 = 21 * W
-_L_T5 = 22 * W
-_L_T6 = 23 * W
-_L_T7 = 24 * W
-_L_T8 = 25 * W
-_NLV = 26
+_L_OK = 1 * W
+_L_ALIVE = 2 * W
+_L_DELTA = 3 * W
+_L_FAR = 4 * W
+_L_BAD = 5 * W
+_L_CODE = 6 * W
+_L_JOINT = 7 * W
+_L_G = 8 * W
+_L_MG = 9 * W
+_L_T0 = 10 * W
+_NLV = 11
 #: Start of the per-joint rows: ws[J0 + i JS + _X + ln] for joint i.
 J0 = _NLV * W
 _Q = 0 * W
@@ -169,68 +159,59 @@ _ACC = 10 * W
 _TAU = 11 * W
 _LC = 12 * W
 _LS = 13 * W
-_R2 = 14 * W
-_R3 = 15 * W
-_R4 = 16 * W
-_K0 = 17 * W
-_K1 = 18 * W
-_K2 = 19 * W
-_K3 = 20 * W
-_KX = 21 * W
-_DQ = 22 * W
-_QT = 23 * W
-_VT = 24 * W
-_BC = 25 * W
-_BS = 26 * W
-_AC = 27 * W
-_AS = 28 * W
-_A2 = 29 * W
-_A3 = 30 * W
-_A4 = 31 * W
-_A5 = 32 * W
-_A6 = 33 * W
-_DC = 34 * W
-_DS = 35 * W
-_EPSG = 36 * W
-_TMP = 37 * W
-_TMP2 = 38 * W
-_TMP3 = 39 * W
-_MADD = 40 * W
-_MHOLD = 41 * W
-_DIST = 42 * W
-_PM = 43 * W
-_PL = 44 * W
-_PC = 45 * W
-_PI = 46 * W
-_MM = 47 * W
-_ML = 48 * W
-_MC = 49 * W
-_MI = 50 * W
-_CFA = 51 * W
-_CFB = 52 * W
-_CFG = 53 * W
-_CFK = 54 * W
-_CFW = 55 * W
-_CFK2 = 56 * W
-_CFE = 57 * W
-_VF0 = 58 * W
-_VF1 = 59 * W
-_VF2 = 60 * W
-_VF3 = 61 * W
-_TMAX = 62 * W
-_Q0 = 63 * W
-_QD0 = 64 * W
+_K0 = 14 * W
+_K1 = 15 * W
+_K2 = 16 * W
+_KX = 17 * W
+_DQ = 18 * W
+_QT = 19 * W
+_VT = 20 * W
+_BC = 21 * W
+_BS = 22 * W
+_AC = 23 * W
+_AS = 24 * W
+_DC = 25 * W
+_DS = 26 * W
+_EPSG = 27 * W
+_TMP = 28 * W
+_TMP2 = 29 * W
+_TMP3 = 30 * W
+_MADD = 31 * W
+_MHOLD = 32 * W
+_DIST = 33 * W
+_PM = 34 * W
+_PL = 35 * W
+_PC = 36 * W
+_PI = 37 * W
+_MM = 38 * W
+_ML = 39 * W
+_MC = 40 * W
+_MI = 41 * W
+_CFA = 42 * W
+_CFB = 43 * W
+_CFG = 44 * W
+_CFK = 45 * W
+_CFW = 46 * W
+_CFK2 = 47 * W
+_CFE = 48 * W
+_VF0 = 49 * W
+_VF1 = 50 * W
+_VF2 = 51 * W
+_VF3 = 52 * W
+_TMAX = 53 * W
+_Q0 = 54 * W
+_QD0 = 55 * W
 # the paper's law (``law = "paper"``): its reaching term, h, the solves' right-hand side and
 # solution, f = -M^{-1} h, and the columns of the centre-of-mass Jacobian of the mass matrix
-_PR = 65 * W
-_PH = 66 * W
-_PRHS = 67 * W
-_PCOL = 68 * W
-_PF = 69 * W
-_PJX = 70 * W
-_PJY = 71 * W
+_PR = 56 * W
+_PH = 57 * W
+_PRHS = 58 * W
+_PCOL = 59 * W
+_PF = 60 * W
+_PJX = 61 * W
+_PJY = 62 * W
 #: First metric accumulator row (rows M_* follow, per joint).
-_MACC = 72
+_MACC = 63
 M_SE2 = 0
 M_SE2C = 1
 M_IAE = 2
@@ -375,61 +356,67 @@ def _angles_stage(ws: np.ndarray, n: int) -> None:
             ws[o + _DS + ln] = sv
 
 
-@njit(forceinline=True, **_OPT)
-def _rnea(ws: np.ndarray, n: int) -> None:
-    """Planar RNEA of the nominal model per lane
-    (:func:`slidingarm.models._kernels._rnea_from_angles`, ``qdd_scale = 1``): ``tau =
-    M(q_m) acc + h(q_m, qd_m)`` into ``_TAU``, from the angles in ``_LC``, ``_LS``."""
-    for ln in range(W):
-        ws[_L_W + ln] = 0.0
-        ws[_L_WD + ln] = 0.0
-        ws[_L_AX + ln] = 0.0
-        ws[_L_AY + ln] = ws[_L_MG + ln]
+def _rnea_source(n: int) -> str:
+    """Source of the planar RNEA of the nominal model for ``n`` joints, per lane
+    (:func:`slidingarm.models._kernels._rnea_from_angles`, ``qdd_scale = 1``, its operations
+    in its order): :math:`\\tau = \\hat M(q_m)\\,a + \\hat h(q_m, \\dot q_m)` into
+    ``_TAU``, from the angles in ``_LC``, ``_LS``, the velocities ``_QDM`` and the
+    accelerations ``_ACC``. Pass 1 (base to tip) carries :math:`\\omega_i`,
+    :math:`\\dot\\omega_i` and the joint's linear acceleration (gravity as the base's
+    upward acceleration) and gives each body's centre-of-mass acceleration; pass 2 (tip to
+    base) carries the force and sums the moments about each joint. One lane loop with scalar
+    locals, as :func:`_aba_source` and for its reason: the passes hand on their values in
+    registers."""
+    def row(i: int, x: int) -> str:
+        return f"ws[{J0 + i * JS + x} + ln]"
+
+    lines = ["def rnea(ws, joints):", f"    for ln in range({W}):"]
+    add = lines.append
+    ind = "        "
+    add(ind + "w = 0.0")
+    add(ind + "wd = 0.0")
+    add(ind + "ax = 0.0")
+    add(ind + f"ay = ws[{_L_MG} + ln]")
     for i in range(n):
-        o = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            w = ws[_L_W + ln] + ws[o + _QDM + ln]
-            wd = ws[_L_WD + ln] + ws[o + _ACC + ln]
-            c = ws[o + _MC + ln]
-            l_i = ws[o + _ML + ln]
-            cphi = ws[o + _LC + ln]
-            sphi = ws[o + _LS + ln]
-            ax = ws[_L_AX + ln]
-            ay = ws[_L_AY + ln]
-            ws[o + _R2 + ln] = ax + wd * (-c * sphi) - w * w * c * cphi
-            ws[o + _R3 + ln] = ay + wd * (c * cphi) - w * w * c * sphi
-            ws[o + _R4 + ln] = wd
-            ws[_L_AX + ln] = ax + wd * (-l_i * sphi) - w * w * l_i * cphi
-            ws[_L_AY + ln] = ay + wd * (l_i * cphi) - w * w * l_i * sphi
-            ws[_L_W + ln] = w
-            ws[_L_WD + ln] = wd
-    for ln in range(W):
-        ws[_L_FX + ln] = 0.0
-        ws[_L_FY + ln] = 0.0
-        ws[_L_MOM + ln] = 0.0
-    for ii in range(n):
-        i = n - 1 - ii
-        o = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            m = ws[o + _MM + ln]
-            c = ws[o + _MC + ln]
-            l_i = ws[o + _ML + ln]
-            cphi = ws[o + _LC + ln]
-            sphi = ws[o + _LS + ln]
-            gx = m * ws[o + _R2 + ln]
-            gy = m * ws[o + _R3 + ln]
-            fx = ws[_L_FX + ln]
-            fy = ws[_L_FY + ln]
-            mom = (
-                ws[o + _MI + ln] * ws[o + _R4 + ln]
-                + c * (cphi * gy - sphi * gx)
-                + l_i * (cphi * fy - sphi * fx)
-                + ws[_L_MOM + ln]
-            )
-            ws[_L_FX + ln] = fx + gx
-            ws[_L_FY + ln] = fy + gy
-            ws[_L_MOM + ln] = mom
-            ws[o + _TAU + ln] = mom
+        add(ind + f"w = w + {row(i, _QDM)}")
+        add(ind + f"wd = wd + {row(i, _ACC)}")
+        add(ind + f"c = {row(i, _MC)}")
+        add(ind + f"l{i} = {row(i, _ML)}")
+        add(ind + f"cphi{i} = {row(i, _LC)}")
+        add(ind + f"sphi{i} = {row(i, _LS)}")
+        add(ind + f"r2_{i} = ax + wd * (-c * sphi{i}) - w * w * c * cphi{i}")
+        add(ind + f"r3_{i} = ay + wd * (c * cphi{i}) - w * w * c * sphi{i}")
+        add(ind + f"r4_{i} = wd")
+        add(ind + f"ax = ax + wd * (-l{i} * sphi{i}) - w * w * l{i} * cphi{i}")
+        add(ind + f"ay = ay + wd * (l{i} * cphi{i}) - w * w * l{i} * sphi{i}")
+    add(ind + "fx = 0.0")
+    add(ind + "fy = 0.0")
+    add(ind + "mom = 0.0")
+    for i in range(n - 1, -1, -1):
+        add(ind + f"m = {row(i, _MM)}")
+        add(ind + f"c = {row(i, _MC)}")
+        add(ind + f"gx = m * r2_{i}")
+        add(ind + f"gy = m * r3_{i}")
+        add(
+            ind + f"mom = ({row(i, _MI)} * r4_{i} + c * (cphi{i} * gy - sphi{i} * gx)"
+            f" + l{i} * (cphi{i} * fy - sphi{i} * fx) + mom)"
+        )
+        add(ind + "fx = fx + gx")
+        add(ind + "fy = fy + gy")
+        add(ind + f"{row(i, _TAU)} = mom")
+    return "\n".join(lines) + "\n"
+
+
+def _rnea(ws: np.ndarray, joints: tuple[int, ...]) -> None:  # pragma: no cover - typed
+    """:func:`_rnea_source` for ``len(joints)`` joints, generated when numba types it."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_rnea, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+def _rnea_typed(ws, joints):  # type: ignore[no-untyped-def]
+    scope: dict[str, object] = {}
+    exec(_rnea_source(len(joints)), scope)  # our own generated source
+    return scope["rnea"]
 
 
 # The step's phases are inlined by LLVM (``forceinline``; numba still compiles each body
@@ -439,142 +426,130 @@ def _rnea(ws: np.ndarray, n: int) -> None:
 # 1490-1590 -> 1300-1500 ticks with the first two, the whole block step -10 % more with the
 # rest (bench_block_parts, two processes side by side); the same bits, and a cold compile of
 # 12.4 instead of 15.9 CPU-s.
-@njit(forceinline=True, **_OPT)
-def _aba(ws: np.ndarray, n: int) -> None:
-    """Planar ABA of the plant per lane
-    (:func:`slidingarm.models._kernels.aba_from_angles_into`): the acceleration at velocity
-    ``_VT``, input ``_TAPP`` and the angles in ``_AC``, ``_AS`` into ``_KX``; a pivot that
-    is not positive clears ``_L_OK``."""
-    for ln in range(W):
-        ws[_L_W + ln] = 0.0
-        ws[_L_T0 + ln] = 0.0
-        ws[_L_T1 + ln] = 0.0
+def _aba_source(n: int) -> str:
+    """Source of the planar ABA of the plant for ``n`` joints, per lane
+    (:func:`slidingarm.models._kernels.aba_from_angles_into`, its operations in its order):
+    the acceleration at velocity ``_VT``, input ``_TAPP`` and the angles in ``_AC``, ``_AS``
+    into ``_KX``; a pivot that is not positive clears ``_L_OK``.
+
+    With :math:`\\omega_i = \\sum_{k \\le i} \\dot q_k` and the link vectors :math:`r_i = l_i
+    (\\cos\\phi_i, \\sin\\phi_i)`, pass 1 carries the joint's linear velocity down the
+    chain, pass 2 (tip to base) the articulated inertia :math:`(d, b, c; D)` and bias force
+    of each body, moved to its parent through :math:`r_i`, and the joint's pivot
+    :math:`d_i = I_i + m_i c_i^2 + a_i`, pass 3 (base to tip) the accelerations
+    :math:`\\ddot\\phi_i = (u_i - b_i a_x - c_i a_y)/d_i`,
+    :math:`\\ddot q_i = \\ddot\\phi_i - \\ddot\\phi_{i-1}`.
+
+    **One lane loop, scalar locals.** The whole ABA is the body of one ``for ln in
+    range(W)`` loop whose values are local variables, not workspace rows: LLVM's loop
+    vectoriser turns it into ``<8 x double>`` code and keeps what the passes hand on (each
+    joint's velocities, pivots, biases, and the articulated quantities carried along the
+    chain) in registers. Written as a lane loop per statement with those values in
+    workspace rows (the rest of this module's form, for the SLP vectoriser), every one was
+    stored and loaded back: 85 vector stores per ABA against 13, and the RK4 step of a
+    paper-arm block (four ABAs) took 1.25-1.68x as long (median of seven timings per
+    form, alternating, in each of six runs; the same bits). Joined with the RK4 stage's
+    input and angles into one body, the loop spilled to the stack and ran slower than
+    both (0.64-0.81x), so only the ABA has this form."""
+    def row(i: int, x: int) -> str:
+        return f"ws[{J0 + i * JS + x} + ln]"
+
+    lines = ["def aba(ws, joints):", f"    for ln in range({W}):"]
+    add = lines.append
+    ind = "        "
+    add(ind + "wp = 0.0")
+    add(ind + "vxc = 0.0")
+    add(ind + "vyc = 0.0")
     for i in range(n):
-        o = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            w = ws[_L_W + ln] + ws[o + _VT + ln]
-            vx = ws[_L_T0 + ln]
-            vy = ws[_L_T1 + ln]
-            ws[o + _A2 + ln] = w
-            ws[o + _A3 + ln] = vx
-            ws[o + _A4 + ln] = vy
-            ws[_L_T0 + ln] = vx - w * ws[o + _PL + ln] * ws[o + _AS + ln]
-            ws[_L_T1 + ln] = vy + w * ws[o + _PL + ln] * ws[o + _AC + ln]
-            ws[_L_W + ln] = w
-    # pass 2, tip to base. The child's articulated quantities are kept unmoved in lane rows
-    # T3..T8 (dd, de, df, pa1, pa2 and its tau) and moved to joint i at the start of joint
-    # i's iteration, with joint i's own r = l_i u_i: the same operations as the scalar
-    # kernel's move at the end of the child's iteration, with no index below joint i.
+        add(ind + f"ac{i} = {row(i, _AC)}")
+        add(ind + f"as{i} = {row(i, _AS)}")
+        add(ind + f"pl{i} = {row(i, _PL)}")
+        add(ind + f"vt{i} = {row(i, _VT)}")
+        add(ind + f"w{i} = wp + vt{i}")
+        add(ind + f"vx{i} = vxc")
+        add(ind + f"vy{i} = vyc")
+        add(ind + f"vxc = vx{i} - w{i} * pl{i} * as{i}")
+        add(ind + f"vyc = vy{i} + w{i} * pl{i} * ac{i}")
+        add(ind + f"wp = w{i}")
+    add(ind + f"ok = ws[{_L_OK} + ln]")
+    # pass 2, tip to base: t0..t8 are the child's articulated quantities (ca, cb, cc moved
+    # to this joint; dd, de, df, its tau, pa1, pa2 unmoved), zero below the tip
     for ii in range(n):
         i = n - 1 - ii
-        o = (J0 + i * JS) & _NONNEG
         if ii == 0:
-            for ln in range(W):
-                ws[_L_T0 + ln] = 0.0
-                ws[_L_T1 + ln] = 0.0
-                ws[_L_T2 + ln] = 0.0
-                ws[_L_T3 + ln] = 0.0
-                ws[_L_T4 + ln] = 0.0
-                ws[_L_T5 + ln] = 0.0
-                ws[_L_T6 + ln] = 0.0
-                ws[_L_T7 + ln] = 0.0
-                ws[_L_T8 + ln] = 0.0
+            add(ind + "t0 = t1 = t2 = t3 = t4 = t5 = t6 = t7 = t8 = 0.0")
         else:
-            for ln in range(W):
-                dd = ws[_L_T3 + ln]
-                de = ws[_L_T4 + ln]
-                df = ws[_L_T5 + ln]
-                pa1 = ws[_L_T7 + ln]
-                pa2 = ws[_L_T8 + ln]
-                tau_c = ws[_L_T6 + ln]
-                rx = ws[o + _PL + ln] * ws[o + _AC + ln]
-                ry = ws[o + _PL + ln] * ws[o + _AS + ln]
-                cb = rx * de - ry * dd
-                cc = rx * df - ry * de
-                ws[_L_T0 + ln] = rx * cc - ry * cb
-                ws[_L_T1 + ln] = cb
-                ws[_L_T2 + ln] = cc
-                ws[_L_T6 + ln] = tau_c + rx * pa2 - ry * pa1
-        for ln in range(W):
-            ca = ws[_L_T0 + ln]
-            cb = ws[_L_T1 + ln]
-            cc = ws[_L_T2 + ln]
-            cd = ws[_L_T3 + ln]
-            ce = ws[_L_T4 + ln]
-            cf = ws[_L_T5 + ln]
-            p0 = ws[_L_T6 + ln]
-            p1 = ws[_L_T7 + ln]
-            p2 = ws[_L_T8 + ln]
-            m = ws[o + _PM + ln]
-            c = ws[o + _PC + ln]
-            wi = ws[o + _A2 + ln]
-            vxi = ws[o + _A3 + ln]
-            vyi = ws[o + _A4 + ln]
-            ia = ws[o + _PI + ln] + m * c * c
-            ib = -m * c * ws[o + _AS + ln]
-            ic = m * c * ws[o + _AC + ln]
-            fx = ib * wi + m * vxi
-            fy = ic * wi + m * vyi
-            d = ia + ca
-            ib += cb
-            ic += cc
-            dd = m + cd
-            de = ce
-            df = m + cf
-            pa0 = vxi * fy - vyi * fx + p0
-            pa1 = -wi * fy + p1
-            pa2 = wi * fx + p2
-            ok = ws[_L_OK + ln]
-            ws[_L_OK + ln] = ok if d > 0.0 else 0.0
-            dinv = 1.0 / d
-            tau_i = ws[o + _TAPP + ln]
-            u = tau_i - pa0
-            ws[o + _KX + ln] = u
-            qdi = ws[o + _VT + ln]
-            cvx = vyi * qdi
-            cvy = -vxi * qdi
-            ws[o + _A2 + ln] = dinv
-            ws[o + _A3 + ln] = cvx
-            ws[o + _A4 + ln] = cvy
-            ws[o + _A5 + ln] = ib
-            ws[o + _A6 + ln] = ic
-            # what the parent's iteration needs, if there is a parent
-            bd = ib * dinv
-            cdv = ic * dinv
-            dd -= ib * bd
-            de -= ib * cdv
-            df -= ic * cdv
-            ud = u * dinv
-            pa1 += dd * cvx + de * cvy + ib * ud
-            pa2 += de * cvx + df * cvy + ic * ud
-            ws[_L_T3 + ln] = dd
-            ws[_L_T4 + ln] = de
-            ws[_L_T5 + ln] = df
-            ws[_L_T6 + ln] = tau_i
-            ws[_L_T7 + ln] = pa1
-            ws[_L_T8 + ln] = pa2
-    # pass 3, base to tip: alpha in T0, ax in T1, ay in T2; the parent's l, sin, cos in T3..T5
-    for ln in range(W):
-        ws[_L_T0 + ln] = 0.0
-        ws[_L_T1 + ln] = 0.0
-        ws[_L_T2 + ln] = ws[_L_G + ln]
+            add(ind + f"rx = pl{i} * ac{i}")
+            add(ind + f"ry = pl{i} * as{i}")
+            add(ind + "cb = rx * t4 - ry * t3")
+            add(ind + "cc = rx * t5 - ry * t4")
+            add(ind + "t0 = rx * cc - ry * cb")
+            add(ind + "t1 = cb")
+            add(ind + "t2 = cc")
+            add(ind + "t6 = t6 + rx * t8 - ry * t7")
+        add(ind + f"m = {row(i, _PM)}")
+        add(ind + f"c = {row(i, _PC)}")
+        add(ind + f"ia = {row(i, _PI)} + m * c * c")
+        add(ind + f"ib = -m * c * as{i}")
+        add(ind + f"ic = m * c * ac{i}")
+        add(ind + f"fx = ib * w{i} + m * vx{i}")
+        add(ind + f"fy = ic * w{i} + m * vy{i}")
+        add(ind + "d = ia + t0")
+        add(ind + "ib += t1")
+        add(ind + "ic += t2")
+        add(ind + "dd = m + t3")
+        add(ind + "de = t4")
+        add(ind + "df = m + t5")
+        add(ind + f"pa0 = vx{i} * fy - vy{i} * fx + t6")
+        add(ind + f"pa1 = -w{i} * fy + t7")
+        add(ind + f"pa2 = w{i} * fx + t8")
+        add(ind + "ok = ok if d > 0.0 else 0.0")
+        add(ind + f"dinv{i} = 1.0 / d")
+        add(ind + f"tau{i} = {row(i, _TAPP)}")
+        add(ind + f"u{i} = tau{i} - pa0")
+        add(ind + f"cvx{i} = vy{i} * vt{i}")
+        add(ind + f"cvy{i} = -vx{i} * vt{i}")
+        add(ind + f"ib{i} = ib")
+        add(ind + f"ic{i} = ic")
+        add(ind + f"bd = ib * dinv{i}")
+        add(ind + f"cdv = ic * dinv{i}")
+        add(ind + "dd -= ib * bd")
+        add(ind + "de -= ib * cdv")
+        add(ind + "df -= ic * cdv")
+        add(ind + f"ud = u{i} * dinv{i}")
+        add(ind + f"pa1 += dd * cvx{i} + de * cvy{i} + ib * ud")
+        add(ind + f"pa2 += de * cvx{i} + df * cvy{i} + ic * ud")
+        add(ind + "t3 = dd")
+        add(ind + "t4 = de")
+        add(ind + "t5 = df")
+        add(ind + f"t6 = tau{i}")
+        add(ind + "t7 = pa1")
+        add(ind + "t8 = pa2")
+    add(ind + f"ws[{_L_OK} + ln] = ok")
+    # pass 3, base to tip
+    add(ind + "alpha = 0.0")
+    add(ind + "ax = 0.0")
+    add(ind + f"ay = ws[{_L_G} + ln]")
     for i in range(n):
-        o = (J0 + i * JS) & _NONNEG
         if i > 0:
-            for ln in range(W):
-                alpha = ws[_L_T0 + ln]
-                ws[_L_T1 + ln] += ws[o + _A3 + ln] - alpha * ws[_L_T3 + ln] * ws[_L_T4 + ln]
-                ws[_L_T2 + ln] += ws[o + _A4 + ln] + alpha * ws[_L_T3 + ln] * ws[_L_T5 + ln]
-        for ln in range(W):
-            alpha = ws[_L_T0 + ln]
-            ax = ws[_L_T1 + ln]
-            ay = ws[_L_T2 + ln]
-            alpha_i = (ws[o + _KX + ln] - ws[o + _A5 + ln] * ax - ws[o + _A6 + ln] * ay) * ws[o + _A2 + ln]
-            ws[o + _KX + ln] = alpha_i - alpha
-            ws[_L_T0 + ln] = alpha_i
-            ws[_L_T3 + ln] = ws[o + _PL + ln]
-            ws[_L_T4 + ln] = ws[o + _AS + ln]
-            ws[_L_T5 + ln] = ws[o + _AC + ln]
+            add(ind + f"ax += cvx{i} - alpha * pl{i - 1} * as{i - 1}")
+            add(ind + f"ay += cvy{i} + alpha * pl{i - 1} * ac{i - 1}")
+        add(ind + f"ai = (u{i} - ib{i} * ax - ic{i} * ay) * dinv{i}")
+        add(ind + f"{row(i, _KX)} = ai - alpha")
+        add(ind + "alpha = ai")
+    return "\n".join(lines) + "\n"
+
+
+def _aba(ws: np.ndarray, joints: tuple[int, ...]) -> None:  # pragma: no cover - typed
+    """:func:`_aba_source` for ``len(joints)`` joints, generated when numba types it."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_aba, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+def _aba_typed(ws, joints):  # type: ignore[no-untyped-def]
+    scope: dict[str, object] = {}
+    exec(_aba_source(len(joints)), scope)  # our own generated source
+    return scope["aba"]
 
 
 _R6 = 1.0 / 6.0
@@ -655,9 +630,10 @@ def _keep_stage(ws: np.ndarray, n: int, krow: int) -> None:
 
 
 @njit(forceinline=True, **_OPT)
-def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
+def _rk4(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool) -> None:
     """One RK4 step of every lane (:func:`slidingarm.models._kernels.rk4_step`); ``known``:
     ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
+    n = len(joints)
     for i in range(n):
         o = (J0 + i * JS) & _NONNEG
         for ln in range(W):
@@ -675,19 +651,19 @@ def _rk4(ws: np.ndarray, n: int, h: float, known: bool) -> None:
         for ln in range(W):
             ws[o + _AC + ln] = ws[o + _BC + ln]
             ws[o + _AS + ln] = ws[o + _BS + ln]
-    _aba(ws, n)
+    _aba(ws, joints)
     _keep_stage(ws, n, _K0)
     _stage(ws, n, 0.5, h, True, _K0, _K0)
     _stage_angles(ws, n)
-    _aba(ws, n)
+    _aba(ws, joints)
     _keep_stage(ws, n, _K1)
     _stage(ws, n, 0.5, h, False, _K1, _K0)
     _stage_angles(ws, n)
-    _aba(ws, n)
+    _aba(ws, joints)
     _keep_stage(ws, n, _K2)
     _stage(ws, n, 1.0, h, False, _K2, _K1)
     _stage_angles(ws, n)
-    _aba(ws, n)
+    _aba(ws, joints)
     _rk4_finish(ws, n, h)
 
 
@@ -711,13 +687,14 @@ def _rk4_finish(ws: np.ndarray, n: int, h: float) -> None:
 
 
 @njit(forceinline=True, **_OPT)
-def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, classic: bool,
+def _law(ws: np.ndarray, joints: tuple[int, ...], k: int, fast_terminal: bool, swcode: float, classic: bool,
          law_tag: np.ndarray, dt: float, q_ref: np.ndarray, qd_ref: np.ndarray,
          qdd_ref: np.ndarray) -> None:  # fmt: skip
     """The sliding-mode law per lane (:func:`slidingarm.control._kernels.control_into`):
     ``s`` into ``_S``, the torque into ``_TAU`` (``law = model``: the nominal RNEA at
     :math:`\\ddot q_d - \\nu - r`; ``paper``: :func:`_paper_law`, chosen by the type of
     ``law_tag``, :func:`_torque`), the angles of the measurement into ``_LC``, ``_LS``."""
+    n = len(joints)
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         qr = q_ref[k, j]
@@ -788,7 +765,7 @@ def _law(ws: np.ndarray, n: int, k: int, fast_terminal: bool, swcode: float, cla
                 ws[o + _PR + ln] = r
                 ws[o + _ST + ln] += dt * ws[o + _CFK2 + ln] * ws[o + _TMP + ln]
                 ws[o + _ACC + ln] = qddr - ws[o + _NU + ln] - r
-    _torque(ws, n, law_tag)
+    _torque(ws, joints, law_tag)
 
 
 #: The law and the arm kind of a block, as the *type* of an empty array passed to
@@ -809,18 +786,18 @@ def _tag_kind(law_tag: object) -> str:
 
 
 @njit(forceinline=True, **_OPT)
-def _planar_torque(ws: np.ndarray, n: int) -> None:
-    _angles_law(ws, n)
-    _rnea(ws, n)
+def _planar_torque(ws: np.ndarray, joints: tuple[int, ...]) -> None:
+    _angles_law(ws, len(joints))
+    _rnea(ws, joints)
 
 
 @njit(forceinline=True, **_OPT)
-def _paper_torque(ws: np.ndarray, n: int) -> None:
-    _angles_law(ws, n)
-    _paper_law(ws, n)
+def _paper_torque(ws: np.ndarray, joints: tuple[int, ...]) -> None:
+    _angles_law(ws, len(joints))
+    _paper_law(ws, joints)
 
 
-def _torque(ws: np.ndarray, n: int, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
+def _torque(ws: np.ndarray, joints: tuple[int, ...], law_tag: np.ndarray) -> None:  # pragma: no cover - typed
     """The torque of the law that ``law_tag``'s type names (:data:`MODEL_TAG`: the planar
     nominal RNEA, :func:`_rnea`; :data:`PAPER_TAG`: :func:`_paper_law`; :data:`SERIAL_TAG`:
     the serial nominal RNEA, :func:`_serial_torque`), chosen when numba types it; the planar
@@ -829,14 +806,14 @@ def _torque(ws: np.ndarray, n: int, law_tag: np.ndarray) -> None:  # pragma: no 
 
 
 @overload(_torque, jit_options={"nogil": True, "error_model": "numpy"})
-def _torque_typed(ws, n, law_tag):  # type: ignore[no-untyped-def]  # numba compares the names
+def _torque_typed(ws, joints, law_tag):  # type: ignore[no-untyped-def]  # numba compares the names
     # and annotations of this signature with the implementation's
     kind = _tag_kind(law_tag)
     if kind == "paper":
-        return lambda ws, n, law_tag: _paper_torque(ws, n)
+        return lambda ws, joints, law_tag: _paper_torque(ws, joints)
     if kind == "serial":
-        return lambda ws, n, law_tag: _serial_torque(ws, n)
-    return lambda ws, n, law_tag: _planar_torque(ws, n)
+        return lambda ws, joints, law_tag: _serial_torque(ws, len(joints))
+    return lambda ws, joints, law_tag: _planar_torque(ws, joints)
 
 
 def _plant_step(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
@@ -849,7 +826,7 @@ def _plant_step(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool, 
 def _plant_step_typed(ws, joints, h, known, law_tag):  # type: ignore[no-untyped-def]
     if _tag_kind(law_tag) == "serial":
         return lambda ws, joints, h, known, law_tag: _rk4_serial(ws, joints, h)
-    return lambda ws, joints, h, known, law_tag: _rk4(ws, len(joints), h, known)
+    return lambda ws, joints, h, known, law_tag: _rk4(ws, joints, h, known)
 
 
 def _load_tables(ws: np.ndarray, n: int, pp: np.ndarray, mp: np.ndarray, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
@@ -1424,7 +1401,7 @@ def _serial_torque(ws: np.ndarray, n: int) -> None:
 
 
 @njit(**_OPT)
-def _paper_law(ws: np.ndarray, n: int) -> None:
+def _paper_law(ws: np.ndarray, joints: tuple[int, ...]) -> None:
     r"""The paper's law per lane (:func:`slidingarm.control._kernels.paper_entry`), from the
     angles of the measurement in ``_LC``, ``_LS``, ``nu`` in ``_NU`` and ``r`` in ``_PR``:
     :math:`h` by the RNEA at zero acceleration, :math:`M` as
@@ -1434,13 +1411,14 @@ def _paper_law(ws: np.ndarray, n: int) -> None:
     order as the scalar law. Where the scalar factorisation stops at a pivot that is not
     positive (a non-finite measurement, for a planar arm with positive masses), a lane
     computes on; the run is reported non-finite either way."""
+    n = len(joints)
     mb = (J0 + n * JS) & _NONNEG
     lb = (mb + n * n * W) & _NONNEG
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             ws[o + _ACC + ln] = 0.0
-    _rnea(ws, n)
+    _rnea(ws, joints)
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
@@ -1815,7 +1793,7 @@ def run_block(
                     if has_dist:
                         ws[o + _DIST + ln] = dist[k, j, ln]
         exact = _measure(ws, n, k, vcode, dt, has_hold)
-        _law(ws, n, k, fast_terminal, swcode, classic, law_tag, dt, q_ref, qd_ref, qdd_ref)
+        _law(ws, joints, k, fast_terminal, swcode, classic, law_tag, dt, q_ref, qd_ref, qdd_ref)
         _clip(ws, n)
         if stride > 0 and k % stride == 0:
             kk = k // stride
