@@ -62,8 +62,9 @@ compensated summation (more accurate than numpy's pairwise sums, so the two agre
 the maxima, and for the reaching and settling times the last sample outside the band with the
 values there and at the next sample; :func:`finish_metrics` applies the formulas of
 :mod:`slidingarm.metrics` to them. The FFT measure ``hf_power_share`` cannot stream: for it
-the kernel writes each run's torque trace ``(T, n)``, and numpy computes it per block
-(:func:`hf_power_share`, the same formulas on series contiguous in time).
+the kernel writes each run's applied torques ``(n, T - 1)``, each joint's series contiguous
+in time, and :func:`hf_power_share` computes it per block (the same formulas; the
+detrending and the power sums compiled, numpy's FFT between them).
 """
 
 from __future__ import annotations
@@ -1731,7 +1732,7 @@ def run_block(
     ``stride``-th; none if ``stride == 0``) to ``q_b[lanes[ln], k // stride]`` etc. (arrays
     ``(B, K, n)``), its status to ``status[lanes[ln]]`` and, if ``metrics``, its metric
     accumulators to ``acc[local[ln]]`` ((C, NACC, n)) and its torque to
-    ``tau_trace[local[ln]]`` ((C, T, n)), ``local`` indexing the caller's chunk of runs. Two
+    ``tau_trace[local[ln]]`` ((C, n, T - 1): the applied torques, each joint's contiguous in time), ``local`` indexing the caller's chunk of runs. Two
     lanes may be the same run (a padded block): they compute and write the same values.
     ``madd``, ``mhold``, ``dist`` are ``(T, n, W)``, or ``(0, n, W)`` when no lane has any
     (then the measurement is ``q + 0.0`` and the input ``tau + 0.0``, as the scalar loop
@@ -1810,11 +1811,12 @@ def run_block(
                         s_b[b, kk, j] = ws[o + _S]
         if metrics:
             _stream_metrics(ws, n, tgrid, q_ref, k, delta_s, delta_e, start)
-            for ln in range(W):
-                if ws[_L_ALIVE + ln] != 0.0:
-                    b = local[ln]
-                    for j in range(n):
-                        tau_trace[b, k, j] = ws[J0 + j * JS + _TAU + ln]
+            if k < nt - 1:
+                for ln in range(W):
+                    if ws[_L_ALIVE + ln] != 0.0:
+                        b = local[ln]
+                        for j in range(n):
+                            tau_trace[b, j, k] = ws[J0 + j * JS + _TAU + ln]
         nalive = 0
         for ln in range(W):
             if ws[_L_ALIVE + ln] != 0.0 and ws[_L_BAD + ln] >= 0.0:
@@ -1946,16 +1948,18 @@ def finish_metrics(
     work: SpectrumWork | None = None,
 ) -> dict[str, np.ndarray]:
     """The metrics of :func:`slidingarm.results.metric_values` from the streamed accumulators
-    ``acc`` (B, NACC, n) and the applied torques ``tau_trace`` (B, T, n) (its last row unused),
-    NaN for ``failed`` runs; ``work``: the spectral metric's buffers (:class:`SpectrumWork`)."""
+    ``acc`` (B, NACC, n) and the applied torques ``tau_trace`` (B, n, T - 1), NaN for
+    ``failed`` runs; ``work``: the spectral metric's buffers (:class:`SpectrumWork`).
+    ``tau_trace`` is scratch: :func:`hf_power_share` overwrites it with its residuals."""
     nt = t.shape[0]
 
     def total(row: int) -> np.ndarray:
         return np.asarray(acc[:, row] + acc[:, row + 1])
 
     mse = total(M_SE2) / nt
-    ok = ~failed
-    trace = np.where(ok[:, None, None], tau_trace, 0.0) if failed.any() else tau_trace
+    if failed.any():
+        # a failed run's trace stops where it failed; its metrics are NaN either way
+        tau_trace[failed] = 0.0
     table = {
         "mse": mse,
         "rmse": np.sqrt(mse),
@@ -1968,7 +1972,7 @@ def finish_metrics(
         "control_effort": total(M_EFF),
         "peak_torque": np.array(acc[:, M_PEAK]),
         "chattering": total(M_CHAT) / (t[-1] - t[0]),
-        "hf_power_share": hf_power_share(t, trace, cutoff_hz, work=work),
+        "hf_power_share": hf_power_share(t, tau_trace, cutoff_hz, work=work),
     }
     out = {}
     for name, v in table.items():
@@ -2007,37 +2011,145 @@ def _sum(x: np.ndarray, lo: int, hi: int) -> float:
     return total
 
 
+@njit(inline="always", **_OPT)
+def _line_sums(row: np.ndarray, tc: np.ndarray, a0: float, lo: int, hi: int) -> tuple[float, float, float]:
+    """Over ``row[lo:hi]``: :math:`\\sum (a - a_0)`, :math:`\\sum t_c (a - a_0)` by eight
+    interleaved partial sums each, combined pairwise, and :math:`\\max |a|`."""
+    a_0 = a_1 = a_2 = a_3 = a_4 = a_5 = a_6 = a_7 = 0.0
+    t_0 = t_1 = t_2 = t_3 = t_4 = t_5 = t_6 = t_7 = 0.0
+    m_0 = m_1 = m_2 = m_3 = m_4 = m_5 = m_6 = m_7 = 0.0
+    m = lo + ((hi - lo) // 8) * 8
+    for i in range(lo, m, 8):
+        d0 = row[i] - a0
+        d1 = row[i + 1] - a0
+        d2 = row[i + 2] - a0
+        d3 = row[i + 3] - a0
+        d4 = row[i + 4] - a0
+        d5 = row[i + 5] - a0
+        d6 = row[i + 6] - a0
+        d7 = row[i + 7] - a0
+        a_0 += d0
+        a_1 += d1
+        a_2 += d2
+        a_3 += d3
+        a_4 += d4
+        a_5 += d5
+        a_6 += d6
+        a_7 += d7
+        t_0 += tc[i] * d0
+        t_1 += tc[i + 1] * d1
+        t_2 += tc[i + 2] * d2
+        t_3 += tc[i + 3] * d3
+        t_4 += tc[i + 4] * d4
+        t_5 += tc[i + 5] * d5
+        t_6 += tc[i + 6] * d6
+        t_7 += tc[i + 7] * d7
+        # a select each (``max`` is a compare and a branch), eight independent chains
+        v0 = abs(row[i])
+        v1 = abs(row[i + 1])
+        v2 = abs(row[i + 2])
+        v3 = abs(row[i + 3])
+        v4 = abs(row[i + 4])
+        v5 = abs(row[i + 5])
+        v6 = abs(row[i + 6])
+        v7 = abs(row[i + 7])
+        m_0 = v0 if v0 > m_0 else m_0
+        m_1 = v1 if v1 > m_1 else m_1
+        m_2 = v2 if v2 > m_2 else m_2
+        m_3 = v3 if v3 > m_3 else m_3
+        m_4 = v4 if v4 > m_4 else m_4
+        m_5 = v5 if v5 > m_5 else m_5
+        m_6 = v6 if v6 > m_6 else m_6
+        m_7 = v7 if v7 > m_7 else m_7
+    sa = ((a_0 + a_1) + (a_2 + a_3)) + ((a_4 + a_5) + (a_6 + a_7))
+    st = ((t_0 + t_1) + (t_2 + t_3)) + ((t_4 + t_5) + (t_6 + t_7))
+    top = max(max(max(m_0, m_1), max(m_2, m_3)), max(max(m_4, m_5), max(m_6, m_7)))
+    for i in range(m, hi):
+        d = row[i] - a0
+        sa += d
+        st += tc[i] * d
+        top = max(top, abs(row[i]))
+    return sa, st, top
+
+
+@njit(inline="always", **_OPT)
+def _residual(row: np.ndarray, tc: np.ndarray, abar: float, slope: float, lo: int, hi: int) -> float:
+    """``row[lo:hi]`` minus the line :math:`\\bar a + b t_c`, in place; the sum of the
+    residual's squares by eight interleaved partial sums, combined pairwise."""
+    s_0 = s_1 = s_2 = s_3 = s_4 = s_5 = s_6 = s_7 = 0.0
+    m = lo + ((hi - lo) // 8) * 8
+    for i in range(lo, m, 8):
+        r0 = row[i] - abar - slope * tc[i]
+        r1 = row[i + 1] - abar - slope * tc[i + 1]
+        r2 = row[i + 2] - abar - slope * tc[i + 2]
+        r3 = row[i + 3] - abar - slope * tc[i + 3]
+        r4 = row[i + 4] - abar - slope * tc[i + 4]
+        r5 = row[i + 5] - abar - slope * tc[i + 5]
+        r6 = row[i + 6] - abar - slope * tc[i + 6]
+        r7 = row[i + 7] - abar - slope * tc[i + 7]
+        row[i] = r0
+        row[i + 1] = r1
+        row[i + 2] = r2
+        row[i + 3] = r3
+        row[i + 4] = r4
+        row[i + 5] = r5
+        row[i + 6] = r6
+        row[i + 7] = r7
+        s_0 += r0 * r0
+        s_1 += r1 * r1
+        s_2 += r2 * r2
+        s_3 += r3 * r3
+        s_4 += r4 * r4
+        s_5 += r5 * r5
+        s_6 += r6 * r6
+        s_7 += r7 * r7
+    ss = ((s_0 + s_1) + (s_2 + s_3)) + ((s_4 + s_5) + (s_6 + s_7))
+    for i in range(m, hi):
+        r = row[i] - abar - slope * tc[i]
+        row[i] = r
+        ss += r * r
+    return ss
+
+
 @njit(**_OPT)
-def _detrend(
-    tau: np.ndarray, ta: np.ndarray, resid: np.ndarray, rms: np.ndarray, scale: np.ndarray
-) -> None:
-    r"""Per series ``a = tau[c, :N, j]`` (``N = len(ta)``, the applied torques): the residual of
-    its least-squares line in time into ``resid[c, j]`` (contiguous in time),
+def _detrend(x: np.ndarray, ta: np.ndarray, rms: np.ndarray, scale: np.ndarray) -> None:
+    r"""Per series ``a = x[c, j]`` (its applied torques at the times ``ta``, ``N`` of them),
+    in place: the residual of its least-squares line in time,
     :math:`r = a - \bar a - b\,t_c` with :math:`t_c = t - \bar t` and
-    :math:`b = \sum t_c (a - \bar a) / \sum t_c^2`, its RMS into ``rms[c, j]`` and
-    :math:`\max |a|` into ``scale[c, j]`` (sums by :func:`_sum`)."""
-    nc, _, n = tau.shape
-    nn = ta.shape[0]
+    :math:`b = \sum t_c (a - \bar a) / \sum t_c^2`; its RMS into ``rms[c, j]`` and
+    :math:`\max |a|` into ``scale[c, j]``.
+
+    Two passes over each series, in blocks of 128 samples (eight interleaved partial sums in
+    a block, the blocks' sums in turn, as :func:`_sum`): the first sums :math:`a - a_0` and
+    :math:`t_c (a - a_0)`, shifted by the first sample so that a large mean does not swamp
+    them, and takes the maximum (:func:`_line_sums`); then :math:`\bar a = a_0 + \sum (a -
+    a_0) / N` and :math:`b = (\sum t_c (a - a_0) - (\bar a - a_0) \sum t_c) / \sum
+    t_c^2` (the :math:`\sum t_c` term, zero but for rounding, keeps it the least-squares
+    line); the second writes the residual and sums its squares (:func:`_residual`)."""
+    nc, n, nn = x.shape
     tc = ta - _sum(ta, 0, nn) / nn
-    tmp = tc * tc
-    stt = _sum(tmp, 0, nn)
+    stc = _sum(tc, 0, nn)
+    sq = tc * tc
+    stt = _sum(sq, 0, nn)
     for c in range(nc):
         for j in range(n):
-            row = resid[c, j]
+            row = x[c, j]
+            a0 = row[0]
+            sa = 0.0
+            sta = 0.0
             top = 0.0
-            for k in range(nn):
-                a = tau[c, k, j]
-                row[k] = a
-                top = max(top, abs(a))
-            abar = _sum(row, 0, nn) / nn
-            for k in range(nn):
-                tmp[k] = tc[k] * (row[k] - abar)
-            slope = _sum(tmp, 0, nn) / stt
-            for k in range(nn):
-                r = row[k] - abar - slope * tc[k]
-                row[k] = r
-                tmp[k] = r * r
-            rms[c, j] = math.sqrt(_sum(tmp, 0, nn) / nn)
+            for k in range(0, nn, 128):
+                ba, bt, bm = _line_sums(row, tc, a0, k, min(k + 128, nn))
+                sa += ba
+                sta += bt
+                top = max(top, bm)
+            shift = sa / nn
+            abar = a0 + shift
+            slope = (sta - shift * stc) / stt
+            ss = 0.0
+            for k in range(0, nn, 128):
+                ss += _residual(row, tc, abar, slope, k, min(k + 128, nn))
+            rms[c, j] = math.sqrt(ss / nn)
             scale[c, j] = top
 
 
@@ -2066,48 +2178,56 @@ _FFT_OUT = np.lib.NumpyVersion(np.__version__) >= "2.0.0"
 
 
 class SpectrumWork:
-    """Buffers of :func:`hf_power_share` for up to ``runs`` series of ``samples`` torques
-    (``n`` joints), reused by every block of a chunk: three fresh arrays of a block's size
-    (its traces, their residuals, their spectra: 1.7 MB each for the paper's run) cost about
-    900 page faults a block, and their first touch evicted what the kernel had left in cache
+    """Buffers of :func:`hf_power_share` for up to ``runs`` runs of ``samples`` samples
+    (``n`` joints), reused by every block of a chunk: the applied torques ``(runs, n,
+    samples - 1)`` (the kernel's output, detrended in place) and their spectra. Arrays of a
+    block's size made afresh each block (1.7 MB each for the paper's run) cost about 900 page
+    faults a block, and their first touch evicted what the kernel had left in cache
     (measured: the Python part of a metrics-mode block 30 % of its time). Not shared between
     threads: each chunk's loop makes its own."""
 
     def __init__(self, runs: int, samples: int, n: int) -> None:
         applied = max(samples - 1, 1)
-        self.trace = np.empty((runs, samples, n))
-        self.resid = np.empty((runs, n, applied))
+        self.trace = np.empty((runs, n, applied))
         self.spectrum = np.empty((runs, n, applied // 2 + 1), dtype=np.complex128)
 
 
 def hf_power_share(
     t: np.ndarray, tau: np.ndarray, cutoff_hz: float, *, work: SpectrumWork | None = None
 ) -> np.ndarray:
-    """:func:`slidingarm.metrics.hf_power_share` of the torques ``tau`` (C, T, n) on the
-    validated uniform grid ``t``: the same formulas (least-squares detrending, one-sided
-    weighted power of ``rfft`` above ``cutoff_hz`` over all of it, 0 for a flat series), the
-    detrending and the power sums compiled (:func:`_detrend`, :func:`_power_sums`: numpy's
-    dozen passes over a block's traces were a quarter of a metrics-mode block's time, with the
-    GIL held), numpy's FFT between them. The sums round differently from numpy's pairwise
-    ones (both to about 1e-15 relative here)."""
+    """:func:`slidingarm.metrics.hf_power_share` of the applied torques ``tau`` (C, n, T - 1)
+    on the validated uniform grid ``t``: the same formulas (least-squares detrending,
+    one-sided weighted power of ``rfft`` above ``cutoff_hz`` over all of it, 0 for a flat
+    series), the detrending (in place: ``tau`` is left holding the residuals) and the power
+    sums compiled (:func:`_detrend`, :func:`_power_sums`: numpy's dozen passes over a block's
+    traces were a quarter of a metrics-mode block's time, with the GIL held), numpy's FFT
+    between them. The sums round differently from numpy's pairwise ones (both to about
+    1e-15 relative here)."""
     from slidingarm import metrics as M
 
     ta = np.ascontiguousarray(t[:-1])
     n_applied = ta.shape[0]
     dt = float(np.mean(np.diff(t)))
+    nc, n, _ = tau.shape
     if n_applied < 2 or not cutoff_hz < 0.5 / dt:
-        # the metric's own answer (zeros) or error (a cut-off beyond the Nyquist frequency)
-        return np.asarray(M.hf_power_share(t, tau, cutoff_hz=cutoff_hz), dtype=np.float64)
-    nc, _, n = tau.shape
-    fits = work is not None and work.resid.shape[0] >= nc and work.resid.shape[1:] == (n, n_applied)
-    resid = work.resid[:nc] if fits and work is not None else np.empty((nc, n, n_applied))
+        # the metric's own answer (zeros) or error (a cut-off beyond the Nyquist frequency),
+        # on the (C, T, n) traces it takes
+        full = np.zeros((nc, t.shape[0], n))
+        full[:, :n_applied] = np.swapaxes(tau[..., :n_applied], -1, -2)
+        return np.asarray(M.hf_power_share(t, full, cutoff_hz=cutoff_hz), dtype=np.float64)
+    if tau.shape[-1] != n_applied or not tau.flags.c_contiguous:
+        raise ValueError(f"tau must be a C-contiguous (C, n, {n_applied}) array, got {tau.shape}")
     rms = np.empty((nc, n))
     scale = np.empty((nc, n))
-    _detrend(np.ascontiguousarray(tau), ta, resid, rms, scale)
+    _detrend(tau, ta, rms, scale)
+    fits = work is not None and work.spectrum.shape[0] >= nc and work.spectrum.shape[1:] == (
+        n,
+        n_applied // 2 + 1,
+    )
     if fits and work is not None and _FFT_OUT:
-        spectrum = np.fft.rfft(resid, axis=-1, out=work.spectrum[:nc])
+        spectrum = np.fft.rfft(tau, axis=-1, out=work.spectrum[:nc])
     else:
-        spectrum = np.fft.rfft(resid, axis=-1)
+        spectrum = np.fft.rfft(tau, axis=-1)
     freqs = np.fft.rfftfreq(n_applied, d=dt)
     sums = np.empty((2, nc, n))
     first_high = int(np.searchsorted(freqs, cutoff_hz, side="right"))
