@@ -447,8 +447,9 @@ def _rnea_typed(ws, joints):  # type: ignore[no-untyped-def]
 def _aba_source(n: int) -> str:
     """Source of the planar ABA of the plant for ``n`` joints, per lane
     (:func:`slidingarm.models._kernels.aba_from_angles_into`, its operations in its order):
-    the acceleration at velocity ``_VT``, input ``_TAPP`` and the angles in ``_AC``, ``_AS``
-    into ``_KX``; a pivot that is not positive clears ``_L_OK``.
+    the acceleration at the velocity in joint row ``vrow``, input ``_TAPP`` and the angles'
+    cosines and sines in rows ``crow``, ``srow`` into row ``out``; a pivot that is not
+    positive clears ``_L_OK``.
 
     With :math:`\\omega_i = \\sum_{k \\le i} \\dot q_k` and the link vectors :math:`r_i = l_i
     (\\cos\\phi_i, \\sin\\phi_i)`, pass 1 carries the joint's linear velocity down the
@@ -472,17 +473,20 @@ def _aba_source(n: int) -> str:
     def row(i: int, x: int) -> str:
         return f"ws[{J0 + i * JS + x} + ln]"
 
-    lines = ["def aba(ws, joints):", f"    for ln in range({W}):"]
+    def arg(i: int, x: str) -> str:
+        return f"ws[{J0 + i * JS} + {x} + ln]"
+
+    lines = ["def aba(ws, joints, vrow, crow, srow, out):", f"    for ln in range({W}):"]
     add = lines.append
     ind = "        "
     add(ind + "wp = 0.0")
     add(ind + "vxc = 0.0")
     add(ind + "vyc = 0.0")
     for i in range(n):
-        add(ind + f"ac{i} = {row(i, _AC)}")
-        add(ind + f"as{i} = {row(i, _AS)}")
+        add(ind + f"ac{i} = {arg(i, 'crow')}")
+        add(ind + f"as{i} = {arg(i, 'srow')}")
         add(ind + f"pl{i} = {row(i, _PL)}")
-        add(ind + f"vt{i} = {row(i, _VT)}")
+        add(ind + f"vt{i} = {arg(i, 'vrow')}")
         add(ind + f"w{i} = wp + vt{i}")
         add(ind + f"vx{i} = vxc")
         add(ind + f"vy{i} = vyc")
@@ -553,18 +557,20 @@ def _aba_source(n: int) -> str:
             add(ind + f"ax += cvx{i} - alpha * pl{i - 1} * as{i - 1}")
             add(ind + f"ay += cvy{i} + alpha * pl{i - 1} * ac{i - 1}")
         add(ind + f"ai = (u{i} - ib{i} * ax - ic{i} * ay) * dinv{i}")
-        add(ind + f"{row(i, _KX)} = ai - alpha")
+        add(ind + f"{arg(i, 'out')} = ai - alpha")
         add(ind + "alpha = ai")
     return "\n".join(lines) + "\n"
 
 
-def _aba(ws: np.ndarray, joints: tuple[int, ...]) -> None:  # pragma: no cover - typed
-    """:func:`_aba_source` for ``len(joints)`` joints, generated when numba types it."""
+def _aba(ws: np.ndarray, joints: tuple[int, ...], vrow: int, crow: int, srow: int, out: int) -> None:  # pragma: no cover - typed
+    """:func:`_aba_source` for ``len(joints)`` joints, generated when numba types it: the
+    velocity in joint row ``vrow``, the angles' cosines and sines in ``crow``, ``srow``, the
+    acceleration into ``out`` (constants where it is inlined)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_aba, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
-def _aba_typed(ws, joints):  # type: ignore[no-untyped-def]
+def _aba_typed(ws, joints, vrow, crow, srow, out):  # type: ignore[no-untyped-def]
     scope: dict[str, object] = {}
     exec(_aba_source(len(joints)), scope)  # our own generated source
     return scope["aba"]
@@ -652,10 +658,6 @@ def _rk4(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool) -> None
     """One RK4 step of every lane (:func:`slidingarm.models._kernels.rk4_step`); ``known``:
     ``_LC``, ``_LS`` hold the angles of ``_Q`` already."""
     n = len(joints)
-    for i in range(n):
-        o = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            ws[o + _VT + ln] = ws[o + _QD + ln]
     if known:
         for i in range(n):
             o = (J0 + i * JS) & _NONNEG
@@ -664,24 +666,18 @@ def _rk4(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool) -> None
                 ws[o + _BS + ln] = ws[o + _LS + ln]
     else:
         _angles_state(ws, n)
-    for i in range(n):
-        o = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            ws[o + _AC + ln] = ws[o + _BC + ln]
-            ws[o + _AS + ln] = ws[o + _BS + ln]
-    _aba(ws, joints)
-    _keep_stage(ws, n, _K0)
+    # each stage's acceleration straight into its row (the ABA reads its inputs from the
+    # rows given): no copies between the stages
+    _aba(ws, joints, _QD, _BC, _BS, _K0)
     _stage(ws, n, 0.5, h, True, _K0, _K0)
     _stage_angles(ws, n)
-    _aba(ws, joints)
-    _keep_stage(ws, n, _K1)
+    _aba(ws, joints, _VT, _AC, _AS, _K1)
     _stage(ws, n, 0.5, h, False, _K1, _K0)
     _stage_angles(ws, n)
-    _aba(ws, joints)
-    _keep_stage(ws, n, _K2)
+    _aba(ws, joints, _VT, _AC, _AS, _K2)
     _stage(ws, n, 1.0, h, False, _K2, _K1)
     _stage_angles(ws, n)
-    _aba(ws, joints)
+    _aba(ws, joints, _VT, _AC, _AS, _KX)
     _rk4_finish(ws, n, h)
 
 
