@@ -263,3 +263,33 @@ def test_other_joint_counts_on_the_block_path_equal_the_scalar_path(n: int) -> N
                 run("block", ARM, ftsmc("sign"), REF, q0=q0s(16), t_final=T_FINAL, dt=DT)
         finally:
             BK.joints_tag = real  # type: ignore[assignment]
+
+
+def test_the_blocks_spectral_share_equals_the_metrics_one_on_hard_series() -> None:
+    """hf_power_share of a block's traces (detrended in place in two passes, sums shifted by
+    the first sample) against slidingarm.metrics' numpy formulas: a large mean (5e6) under a small
+    fluctuation, a steep trend, a constant (flat: 0) and a straight line (flat: 0)."""
+    from slidingarm import metrics as M
+
+    t = np.arange(4001) * DT
+    rng = np.random.default_rng(11)
+    runs, n = 4, 3
+    tau = rng.normal(size=(runs, t.size, n)) * np.array([1e-3, 1.0, 30.0])
+    tau += 5e6 + 40.0 * t[:, None] + 3.0 * np.sin(2 * np.pi * 70.0 * t)[:, None]
+    tau[1, :, 0] = 7.25
+    tau[2, :, 1] = -3.0 + 12.5 * t
+    expected = M.hf_power_share(t, tau)
+    work = BK.SpectrumWork(runs, t.size, n)
+    work.trace[:] = np.swapaxes(tau[:, :-1], 1, 2)
+    got = BK.hf_power_share(t, work.trace[:runs], 50.0, work=work)
+    assert got[1, 0] == 0.0 and got[2, 1] == 0.0
+    assert expected[1, 0] == 0.0 and expected[2, 1] == 0.0
+    np.testing.assert_allclose(got, expected, rtol=1e-11, atol=0)
+    # the residual left in place is the least-squares one: orthogonal to 1 and to t
+    # (to the rounding of the samples themselves, eps of their magnitude each)
+    resid = work.trace[0]
+    ta = t[:-1] - t[:-1].mean()
+    size = np.abs(tau[0, :-1]).T
+    eps = np.finfo(float).eps
+    assert np.all(np.abs(resid.sum(axis=-1)) <= 4 * eps * size.sum(axis=-1))
+    assert np.all(np.abs(resid @ ta) <= 4 * eps * (size @ np.abs(ta)))
