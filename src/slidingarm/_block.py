@@ -374,6 +374,14 @@ def _angles_stage(ws: np.ndarray, n: int) -> None:
             ws[o + _DS + ln] = sv
 
 
+def _joint_row(i: int, x: int | str) -> str:
+    """Source of joint ``i``'s entry of row ``x`` (an offset, or the name of an argument that
+    holds one) at lane ``ln``, for the generated lane loops."""
+    if isinstance(x, int):
+        return f"ws[{J0 + i * JS + x} + ln]"
+    return f"ws[{J0 + i * JS} + {x} + ln]"
+
+
 def _rnea_source(n: int) -> str:
     """Source of the planar RNEA of the nominal model for ``n`` joints, per lane
     (:func:`slidingarm.models._kernels._rnea_from_angles`, ``qdd_scale = 1``, its operations
@@ -385,9 +393,7 @@ def _rnea_source(n: int) -> str:
     base) carries the force and sums the moments about each joint. One lane loop with scalar
     locals, as :func:`_aba_source` and for its reason: the passes hand on their values in
     registers."""
-    def row(i: int, x: int) -> str:
-        return f"ws[{J0 + i * JS + x} + ln]"
-
+    row = _joint_row
     lines = ["def rnea(ws, joints):", f"    for ln in range({W}):"]
     add = lines.append
     ind = "        "
@@ -470,12 +476,7 @@ def _aba_source(n: int) -> str:
     form, alternating, in each of six runs; the same bits). Joined with the RK4 stage's
     input and angles into one body, the loop spilled to the stack and ran slower than
     both (0.64-0.81x), so only the ABA has this form."""
-    def row(i: int, x: int) -> str:
-        return f"ws[{J0 + i * JS + x} + ln]"
-
-    def arg(i: int, x: str) -> str:
-        return f"ws[{J0 + i * JS} + {x} + ln]"
-
+    row = arg = _joint_row
     lines = ["def aba(ws, joints, vrow, crow, srow, out):", f"    for ln in range({W}):"]
     add = lines.append
     ind = "        "
