@@ -41,6 +41,7 @@ from slidingarm.disturbances import (
     SinusoidalTorque,
     disturbance_torque,
 )
+from slidingarm.metrics import DEFAULT_CUTOFF_HZ
 from slidingarm.models.base import ArmModel
 from slidingarm.models.stepped import SteppedPlant
 from slidingarm.references import Reference
@@ -508,7 +509,6 @@ def _run_blocks(
     from slidingarm import _block as BK
     from slidingarm.control import _kernels as CK
     from slidingarm.metrics import (
-        DEFAULT_CUTOFF_HZ,
         DEFAULT_DELTA_E,
         DEFAULT_DELTA_S,
         DEFAULT_WINDOW,
@@ -888,6 +888,14 @@ def simulate_batch(
 
     steps, _h = _grid_steps(t_final, dt)
     nt = steps + 1
+    if record != "full" and not DEFAULT_CUTOFF_HZ < 0.5 / float(dt):
+        # the streamed metrics include hf_power_share, whose cut-off must lie below the
+        # Nyquist frequency: refused here, not after the whole batch has run
+        raise ValueError(
+            f"record={record!r} computes hf_power_share above {DEFAULT_CUTOFF_HZ:g} Hz, which "
+            f"needs dt < {0.5 / DEFAULT_CUTOFF_HZ:g} s (the Nyquist frequency 1/(2 dt) above "
+            f"it); got dt = {float(dt):g} s: use a smaller dt or record='full'"
+        )
     stepped = any(isinstance(p, SteppedPlant) for p in plants)
     if threads is not None and (
         isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1

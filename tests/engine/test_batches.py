@@ -182,6 +182,26 @@ def test_bad_record_and_throw_are_refused() -> None:
         sa.Every(2.0)  # type: ignore[arg-type]
 
 
+def test_metrics_at_a_step_too_coarse_for_their_spectrum_are_refused_before_running(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """hf_power_share's 50 Hz cut-off needs dt < 0.01 s: a metrics batch at dt = 0.02 s is
+    refused up front, naming dt, without running a single step (it used to raise after the
+    whole batch); record='full' at that step still runs."""
+    import slidingarm._engine as E
+
+    def never(*args: object, **kw: object) -> None:
+        raise AssertionError("the batch ran")
+
+    monkeypatch.setattr(E, "run_one", never)
+    for record in ("metrics", sa.Every(2)):
+        with pytest.raises(ValueError, match=r"needs dt < 0\.01 s .*got dt = 0\.02 s"):
+            sa.simulate_batch(ARM, ftsmc(), REF, q0=sa.PAPER_Q0, t_final=0.2, dt=0.02, record=record)
+    monkeypatch.undo()
+    full = sa.simulate_batch(ARM, ftsmc(), REF, q0=sa.PAPER_Q0, t_final=0.2, dt=0.02)
+    assert full.q.shape == (1, 11, 3)
+
+
 def test_a_batch_too_large_for_memory_is_refused_before_allocating() -> None:
     with pytest.raises(MemoryError, match=r"use record='metrics'"):
         sa.simulate_batch(ARM, ftsmc(), REF, q0=np.zeros((100_000, 3)), t_final=4.5, dt=DT)
