@@ -367,6 +367,43 @@ def test_figure_worker_draws_the_figures_it_is_given_as_save_figure_does(tmp_pat
         draw(runs, "T", {"nope": tmp_path / "nope"})
 
 
+@pytest.mark.parametrize(("n", "svg"), [(3, True), (6, False)])
+def test_a_figure_handed_back_draws_the_next_of_its_layout_as_a_new_figure_would(
+    tmp_path: Path, n: int, svg: bool
+) -> None:
+    # a figure worker hands each saved figure back and draws the next figure of the same
+    # layout into it (slidingarm.plotting._recycle): every figure of a second scenario, drawn
+    # into the figures the first one's left (of other kinds: the order is reversed), is the
+    # same file as a new figure's (PNG, and SVG for three joints); the runs differ in what the plot functions
+    # set only for some data (chattering bands, symlog widths, log decades, lengths)
+    from slidingarm.plotting import _recycle
+    from slidingarm.plotting._worker import draw
+
+    first = _results(n, chatter=True)
+    second = _results(n, chatter=False, dt=1e-2)
+    # a run on its reference to 1e-9 rad: a steady-state axis of many decades, a narrow s
+    on = second["pdsmc"]
+    second["pdsmc"] = dataclasses.replace(on, q=on.q_ref + 1e-9, s=on.s * 1e-6)
+    new = {}
+    for name in FIGURES:
+        _recycle.clear()
+        new[name] = draw(second, "B", {name: tmp_path / "new" / name}, svg=svg)[name]
+    _recycle.clear()
+    draw(first, "A", {name: tmp_path / "a" / name for name in FIGURES}, svg=svg)
+    kept = _recycle.held()
+    # stacked panels, one panel (joint 1), a row per joint and a column per run
+    assert len(kept) == 3
+    again = draw(
+        second, "B", {name: tmp_path / "b" / name for name in reversed(FIGURES)}, svg=svg
+    )
+    assert sorted(map(id, _recycle.held())) == sorted(map(id, kept))  # the same figures
+    for name in FIGURES:
+        for suffix in (".png", ".svg") if svg else (".png",):
+            drawn = again[name].with_suffix(suffix).read_bytes()
+            assert drawn == new[name].with_suffix(suffix).read_bytes(), (name, suffix)
+    _recycle.clear()
+
+
 def test_the_study_and_its_report_never_load_matplotlib() -> None:
     # the study's process writes tables and the report only (its forked workers draw): the
     # figure names and controller styles come without matplotlib, the drawing loads it
@@ -425,6 +462,8 @@ def test_figure_worker_imports_neither_pandas_nor_the_study_and_runs_niced(tmp_p
         f"paths = _worker.draw(res, 'a run', {{'tracking_all': {str(tmp_path / 'fig')!r}}},"
         " None, False)\n"
         "assert paths['tracking_all'].is_file()\n"
-        "assert not figures()\n"  # and so was the figure task's
+        # and so was the figure task's, but for the figure it handed back for the next one
+        "from slidingarm.plotting import _recycle\n"
+        "assert figures() == _recycle.held() and len(figures()) == 1\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

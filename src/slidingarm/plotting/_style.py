@@ -17,6 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter
 from numpy.typing import NDArray
 
+from slidingarm.plotting import _recycle
 from slidingarm.plotting._catalog import REFERENCE_STYLE, LineStyle, controller_style
 
 if TYPE_CHECKING:
@@ -100,6 +101,10 @@ def panels(
     if ax is None:
         if height is None:
             height = 1.6 + 1.75 * count if count <= 3 else 1.6 + 1.4 * count
+        key = ("stacked", count, height)
+        reused = _recycle.take(key)
+        if reused is not None:
+            return reused[0], reused[1], True
         width = 7.0
         fig = Figure(figsize=(width, height))
         fig.subplots_adjust(
@@ -110,7 +115,9 @@ def panels(
             hspace=_GAP * count / (height - _BOTTOM - _TITLE_H - _LEGEND_H - _GAP * (count - 1)),
         )
         grid = fig.subplots(count, 1, sharex=True, squeeze=False)
-        return fig, [grid[i, 0] for i in range(count)], True
+        stacked = [grid[i, 0] for i in range(count)]
+        _recycle.tag(fig, key, stacked)
+        return fig, stacked, True
     axes = [ax] if isinstance(ax, Axes) else list(ax)
     if len(axes) != count or not all(isinstance(a, Axes) for a in axes):
         raise ValueError(
@@ -130,6 +137,10 @@ def _grid(count: int, height: float | None) -> tuple[Figure, list[Axes], bool]:
     width = _GRID_WIDTH
     if height is None:
         height = _BOTTOM + _TITLE_H + _LEGEND_H + 0.25 + _GRID_ROW_H * rows
+    key = ("grid", count, height)
+    reused = _recycle.take(key)
+    if reused is not None:
+        return reused[0], reused[1], True
     fig = Figure(figsize=(width, height))
     inner_h = height - _BOTTOM - _TITLE_H - _LEGEND_H
     panel_w = (width - _LEFT - _RIGHT - _LEFT * (cols - 1)) / cols
@@ -147,6 +158,7 @@ def _grid(count: int, height: float | None) -> tuple[Figure, list[Axes], bool]:
         fig.delaxes(grid[i // cols, i % cols])
         # the panel above the empty cell ends its column: it shows the time axis
         grid[i // cols - 1, i % cols].xaxis.set_tick_params(labelbottom=True)
+    _recycle.tag(fig, key, axes)
     return fig, axes, True
 
 

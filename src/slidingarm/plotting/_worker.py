@@ -149,17 +149,22 @@ def draw(
     scenario's ``results`` and save each as ``<stem>.png`` and, with ``svg``, ``<stem>.svg``
     (:func:`slidingarm.plotting.save_figure`); return figure name → PNG path, in the order
     of ``stems``. ``tool_paths`` as :func:`slidingarm.study.reproduce.render_figures`."""
-    from slidingarm.plotting import save_figure, scenario_figures
+    from slidingarm.plotting import _recycle, save_figure, scenario_figures
+    from slidingarm.plotting.figures import chosen_figures
 
     desired, actual = (None, None) if tool_paths is None else tool_paths
-    only: Sequence[str] = list(stems)
-    figures = scenario_figures(
-        results, title=title, only=only, tool_paths=actual, tool_reference=desired
-    )
+    # every name checked before any figure is drawn
+    only: Sequence[str] = chosen_figures(list(stems), tool=actual is not None)
     paths: dict[str, Path] = {}
     for fig_name in only:
-        # each figure is dropped once saved (not cleared: that would rebuild its ticks)
-        written = save_figure(figures.pop(fig_name), stems[fig_name], clear=False, svg=svg)
+        # one figure at a time, handed back once saved (not cleared: that would rebuild its
+        # ticks), so that the next figure of its layout is drawn into it
+        # (slidingarm.plotting._recycle)
+        fig = scenario_figures(
+            results, title=title, only=[fig_name], tool_paths=actual, tool_reference=desired
+        )[fig_name]
+        written = save_figure(fig, stems[fig_name], clear=False, svg=svg)
+        _recycle.give_back(fig)
         paths[fig_name] = next(p for p in written if p.suffix == ".png")
     # the dropped figures' cycles (automatic collection is off in a worker, init_worker)
     after_task()

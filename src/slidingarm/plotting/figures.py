@@ -27,6 +27,7 @@ from matplotlib.ticker import NullLocator
 from numpy.typing import ArrayLike, NDArray
 
 from slidingarm.metrics import DEFAULT_WINDOW
+from slidingarm.plotting import _recycle
 from slidingarm.plotting._catalog import (
     FIGURES,
     REFERENCE_STYLE,
@@ -336,6 +337,11 @@ def _column_panels(
     """A grid of ``rows`` joints by ``cols`` runs sharing x, each row sharing y: a new figure
     (``ax=None``) or the caller's ``rows * cols`` Axes in row-major order."""
     if ax is None:
+        key = ("columns", rows, cols)
+        reused = _recycle.take(key)
+        if reused is not None:
+            fig, flat = reused
+            return fig, [flat[r * cols : (r + 1) * cols] for r in range(rows)], True
         width = 1.2 + 3.1 * cols
         height = 1.0 + 1.65 * rows
         fig = Figure(figsize=(width, height))
@@ -344,6 +350,7 @@ def _column_panels(
             top=1.0 - 0.68 / height, wspace=0.12, hspace=0.16 * rows / max(rows, 1),
         )  # fmt: skip
         grid = fig.subplots(rows, cols, sharex=True, sharey="row", squeeze=False)
+        _recycle.tag(fig, key, [grid[r, c] for r in range(rows) for c in range(cols)])
         return fig, [[grid[r, c] for c in range(cols)] for r in range(rows)], True
     axes = [ax] if isinstance(ax, Axes) else list(ax)
     if len(axes) != rows * cols or not all(isinstance(a, Axes) for a in axes):
@@ -637,6 +644,23 @@ def plot_tool_path(
 
 
 # ---------------------------------------------------------------------------- one scenario
+def chosen_figures(only: Sequence[str] | None, *, tool: bool = False) -> list[str]:
+    """The figures ``only`` names (all of :data:`FIGURES`, and :data:`TOOL_FIGURES` with
+    ``tool``, if ``None``), checked as :func:`scenario_figures` checks them.
+
+    Raises
+    ------
+    ValueError
+        If a name is not among those figures.
+    """
+    names = FIGURES + (TOOL_FIGURES if tool else ())
+    wanted = list(names) if only is None else list(only)
+    unknown = [name for name in wanted if name not in names]
+    if unknown:
+        raise ValueError(f"unknown figure {unknown[0]!r}; the figures are {', '.join(names)}")
+    return wanted
+
+
 def scenario_figures(
     results: Results,
     *,
@@ -673,10 +697,7 @@ def scenario_figures(
     results = as_mapping(results)
     _items(results)
     names = FIGURES + (TOOL_FIGURES if tool_paths is not None else ())
-    wanted = list(names) if only is None else list(only)
-    unknown = [name for name in wanted if name not in names]
-    if unknown:
-        raise ValueError(f"unknown figure {unknown[0]!r}; the figures are {', '.join(names)}")
+    wanted = chosen_figures(only, tool=tool_paths is not None)
 
     def full(what: str) -> str:
         return f"{what} — {title}" if title else what
