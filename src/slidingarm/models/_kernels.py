@@ -63,10 +63,15 @@ __all__ = [
 WORK_ROWS = 8
 
 _CACHE = True
-#: The kernels below are inlined in numba's IR where they are called, except the sine and
-#: cosine (one compiled body called everywhere; ``forceinline=False`` stated, as numba would
-#: otherwise hand on the ``forceinline`` of the caller it is first compiled for) and the RK4
-#: step (compiled once and inlined by LLVM, see :func:`rk4_step`).
+#: The kernels below are each compiled once, as functions of their own, and inlined by LLVM
+#: where they are called (``forceinline``: the ``alwaysinline`` attribute), except the sine
+#: and cosine (one compiled body called everywhere; ``forceinline=False`` stated, as numba
+#: would otherwise hand on the ``forceinline`` of the caller it is first compiled for) and
+#: :func:`rotated`, inlined in numba's IR (the block loop's lane loops call it). Inlined in
+#: numba's IR instead, every function calling them compiled their bodies again: the paper's
+#: law (:func:`slidingarm.control._kernels.paper_entry`) compiled the kinematics and the RNEA
+#: that the law and the RK4 step had compiled already, 2.5 CPU-s cold against 1.65 since, with
+#: the loop's first compilation unchanged and its code the same (LLVM inlines either way).
 _INLINE = "always"
 
 
@@ -98,7 +103,7 @@ def sincos(x: float) -> tuple[float, float]:
     return VM.sincos(x)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def angles_into(q: np.ndarray, work: np.ndarray) -> None:
     """Cosine (row 0) and sine (row 1) of the absolute angles ``phi_i = q_0 + ... + q_i``
     (:func:`sincos`)."""
@@ -120,7 +125,7 @@ def mass_matrix_into(arm: np.ndarray, q: np.ndarray, out: np.ndarray, work: np.n
     _mass_from_angles(arm, q.shape[0], out, work)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def _mass_from_angles(arm: np.ndarray, n: int, out: np.ndarray, work: np.ndarray) -> None:
     """:math:`M` from the angles already in ``work`` rows 0-1 (uses rows 2-3)."""
     cphi = work[0]
@@ -234,7 +239,7 @@ def bias_into(
     _rnea_from_angles(arm, g, qd, qd, 0.0, out, work)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def inverse_dynamics_into(
     arm: np.ndarray,
     g: float,
@@ -249,7 +254,7 @@ def inverse_dynamics_into(
     _rnea_from_angles(arm, g, qd, qdd, 1.0, out, work)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def _rnea_from_angles(
     arm: np.ndarray,
     g: float,
@@ -302,7 +307,7 @@ def _rnea_from_angles(
         out[i] = mom
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def cholesky_solve_into(a: np.ndarray, b: np.ndarray, out: np.ndarray, lw: np.ndarray) -> bool:
     """Solve ``a x = b`` for symmetric positive definite ``a`` (n, n) by Cholesky.
 
@@ -335,7 +340,7 @@ def cholesky_solve_into(a: np.ndarray, b: np.ndarray, out: np.ndarray, lw: np.nd
     return True
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def forward_dynamics_into(
     arm: np.ndarray,
     g: float,
@@ -356,7 +361,7 @@ def forward_dynamics_into(
     return aba_from_angles_into(arm, g, qd, tau, out, work)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def aba_from_angles_into(
     arm: np.ndarray,
     g: float,
@@ -492,7 +497,7 @@ _R42 = 1.0 / 42.0
 _R56 = 1.0 / 56.0
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def shifted_angles_into(base: np.ndarray, dq: np.ndarray, q: np.ndarray, work: np.ndarray) -> None:
     """Fill ``work`` rows 0-1 with the cosines and sines of the absolute angles of ``q``, given
     those of ``q - dq`` in ``base`` (2, n), for a small step ``dq`` (n,).
@@ -532,7 +537,7 @@ def rotated(c: float, s: float, delta: float) -> tuple[float, float]:
     return c + (c * cos_m1 - s * sin_d), s + (s * cos_m1 + c * sin_d)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def mass_and_bias_into(
     arm: np.ndarray,
     g: float,
@@ -548,7 +553,7 @@ def mass_and_bias_into(
     _rnea_from_angles(arm, g, qd, qd, 0.0, h, work)
 
 
-@njit(cache=_CACHE, nogil=True, error_model="numpy", inline=_INLINE)
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def potential_energy(arm: np.ndarray, g: float, q: np.ndarray, work: np.ndarray) -> float:
     """Potential energy :math:`V = g \\sum_i m_i y_{c,i}` (J, zero at ``y = 0``), with
     :math:`y_{c,i} = \\sum_{a<i} l_a \\sin\\phi_a + c_i \\sin\\phi_i`."""
