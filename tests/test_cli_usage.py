@@ -135,3 +135,32 @@ def test_a_run_refused_by_the_memory_check_is_one_line(
     assert code == EXIT_USAGE
     assert "of the 1 KiB of memory available: use record='metrics'" in one_line(err)
     assert not out_dir.exists()
+
+
+def test_the_console_script_runs_exit_handlers_flushes_and_keeps_the_status(
+    tmp_path: Path,
+) -> None:
+    # slidingarm.cli.script ends the process without the interpreter's teardown: what an
+    # exit handler prints still arrives after the command's output, through a pipe (flushed),
+    # and the status is main's, for a success and for a user mistake
+    code = (
+        "import atexit, sys\n"
+        "atexit.register(lambda: print('handler ran'))\n"
+        "sys.argv = ['slidingarm', *sys.argv[1:]]\n"
+        "from slidingarm.cli import script\n"
+        "script()\n"
+        "raise AssertionError('script returned')\n"
+    )
+    ok = subprocess.run(
+        [sys.executable, "-c", code, "validate", "sign"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert ok.returncode == 0, ok.stderr
+    assert ok.stdout.rstrip("\n").endswith("handler ran") and len(ok.stdout.splitlines()) > 1
+    bad = subprocess.run(
+        [sys.executable, "-c", code, "run", "sign"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert bad.returncode == EXIT_USAGE and bad.stdout == "handler ran\n"
+    assert one_line(bad.stderr).startswith("error: slidingarm run: missing option '--out'")
+

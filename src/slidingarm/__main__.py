@@ -1,6 +1,6 @@
 """``python -m slidingarm``: the command-line interface."""
 
-from slidingarm.cli import main
+from slidingarm.cli import script
 
 if __name__ == "__main__":
-    main()
+    script()

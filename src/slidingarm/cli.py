@@ -10,8 +10,10 @@ when stdout is a terminal.
 
 from __future__ import annotations
 
+import atexit
 import json
 import math
+import os
 import shlex
 import sys
 from collections.abc import Callable, Iterator
@@ -667,3 +669,34 @@ def main(argv: list[str] | None = None) -> None:
         typer.echo("error: aborted", err=True)
         sys.exit(EXIT_FAILED)
     sys.exit(code if isinstance(code, int) else 0)
+
+
+def script() -> NoReturn:
+    """The ``slidingarm`` console script and ``python -m slidingarm``: :func:`main`, then the
+    process ends at once with its exit status.
+
+    A finished command has written and closed its files (atomically) and joined its worker
+    processes; what the interpreter would still do is tear down the modules and objects it
+    holds (numba's compiled code, pandas), about half a second after ``reproduce``. So the
+    exit handlers run (:mod:`atexit`), the standard streams are flushed, and
+    :func:`os._exit` ends the process with the status :func:`main` exited with (a status
+    that is not a number is printed on stderr and exits with 1, as Python does).
+    """
+    try:
+        main()
+        code: object = 0
+    except SystemExit as exc:
+        code = exc.code
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):
+        print(code, file=sys.stderr)
+        code = 1
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe or stream: nothing more can reach it
+            code = code or EXIT_FAILED
+    os._exit(code)
+
