@@ -133,3 +133,21 @@ def test_craig_split_needs_three_joints(n: int) -> None:
         ValueError, match=_m(f"craig_split is defined for a 3-joint arm; this arm has {n} joints")
     ):
         craig_split(arm, np.zeros(n))
+
+
+def test_the_study_and_the_command_line_import_neither_pandas_nor_the_analyses() -> None:
+    # reproduce forks its figure workers before it imports them (slidingarm.study.reproduce):
+    # the workers start without them, and the import runs while they compile on the other core
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, slidingarm.cli\n"
+        "from slidingarm.study import PAPER_MSE, reproduce, run, load_shipped\n"
+        "load_shipped('sign').build()\n"
+        "bad = [m for m in ('pandas', 'slidingarm.study.analysis', 'slidingarm.study.paper_report')"
+        " if m in sys.modules]\n"
+        "assert not bad, bad\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+

@@ -8,8 +8,8 @@
 - :func:`reproduce` — the whole study with its analyses and report.
 """
 
-from slidingarm.study.analysis import PAPER_MSE
 from slidingarm.study.output import OutputError
+from slidingarm.study.paper import PAPER_MSE
 from slidingarm.study.reproduce import Progress, StudyOutput, reproduce, run, run_scenario
 from slidingarm.study.shipped import (
     BASE,

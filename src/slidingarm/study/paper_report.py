@@ -45,7 +45,14 @@ from slidingarm.study.analysis import (
     follows_ranking,
     ranking_mse,
 )
-from slidingarm.study.paper import PAPER_FIGURES, PAPER_MSE_SWITCHING, RANKING, ScenarioKind
+from slidingarm.study.paper import (
+    PAPER_FIGURES,
+    PAPER_MSE_SWITCHING,
+    RANKING,
+    ScenarioKind,
+    figure_stem,
+    paper_figure_number,
+)
 from slidingarm.study.report_context import ReportContext
 
 __all__ = [
@@ -715,30 +722,6 @@ def _noise_reaching_note(ctx: ReportContext, scen: str) -> str:
         "|s| ≤ δ_s until the end of the run; the time after which it stays inside would "
         "measure the noise, not the reaching."
     )
-
-
-def paper_figure_number(kind: str | None, figure: str) -> int | None:
-    """The paper's (first) figure number for ``figure`` (a name of
-    :data:`slidingarm.plotting.FIGURES`) in the paper's case ``kind`` (:data:`ScenarioKind`),
-    e.g. 5 for the sign case's torque; None when the paper has no such figure or ``kind`` is not
-    one of its cases."""
-    if kind not in PAPER_FIGURES:
-        return None
-    numbers = PAPER_FIGURES[kind].get(figure)
-    if numbers is None:
-        return None
-    first = numbers.replace("–", " ").split()[0]
-    return int(first)
-
-
-def figure_stem(scenario: str, figure: str, kind: str | None = None) -> str:
-    """The file stem of a scenario's figure: ``<scenario>_fig<NN>_<figure>`` with the paper's
-    figure number ``NN`` (two digits, :func:`paper_figure_number`) when the paper has that
-    figure, else ``<scenario>_<figure>``. ``kind`` is the paper's case the scenario runs
-    (default: the scenario's name if it is one, as the study's ``sign``, ``tanh``, ``noise``),
-    so ``figure_stem("sign", "torque")`` is ``"sign_fig05_torque"``."""
-    number = paper_figure_number(scenario if kind is None else kind, figure)
-    return f"{scenario}_{figure}" if number is None else f"{scenario}_fig{number:02d}_{figure}"
 
 
 def _figure_blocks(ctx: ReportContext, scenarios: list[str], out_dir: Path) -> list[Block]:

@@ -36,7 +36,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from slidingarm import _engine as E
 from slidingarm._gc import paused
@@ -44,13 +43,14 @@ from slidingarm._version import __version__
 from slidingarm.config import Scenario, Setup
 from slidingarm.models.serial import SerialArm
 from slidingarm.results import SimResult
-from slidingarm.study import analysis as A
 from slidingarm.study.output import Staging, csv_bytes
 from slidingarm.study.shipped import SCENARIOS, load_shipped
 
 if TYPE_CHECKING:
     from multiprocessing.context import BaseContext
     from types import FrameType
+
+    import pandas as pd
 
     from slidingarm.study.paper import ScenarioKind
 
@@ -93,7 +93,7 @@ class StudyOutput:
 
     out_dir: Path
     metrics: pd.DataFrame
-    checks: pd.DataFrame = field(default_factory=pd.DataFrame)
+    checks: pd.DataFrame = field(default_factory=lambda: _empty_table())
     runtime_s: float = 0.0
     files: list[Path] = field(default_factory=list)
     kept: list[Path] = field(default_factory=list)
@@ -102,6 +102,19 @@ class StudyOutput:
     def passed(self) -> bool:
         """Whether every check passed."""
         return bool(self.checks.empty or self.checks["passed"].all())
+
+
+def _empty_table() -> pd.DataFrame:
+    import pandas as pd
+
+    return pd.DataFrame()
+
+
+# pandas and the analyses (slidingarm.study.analysis, slidingarm.study.paper_report) are
+# imported where a study needs them, not with this module: reproduce imports them once it has
+# simulated (slidingarm.study.runs has no pandas), so that its figure workers are forked
+# sooner and the import runs while they draw, not before the workers start, when one core
+# works and the other waits (benchmarks/bench_reproduce.py)
 
 
 def run_scenario(scenario: Scenario | Setup) -> dict[str, SimResult]:
@@ -115,6 +128,8 @@ def run_scenario(scenario: Scenario | Setup) -> dict[str, SimResult]:
         If a run diverges.
     """
     setup = scenario.build() if isinstance(scenario, Scenario) else scenario
+    from slidingarm.study import analysis as A
+
     return A.simulate_setup(setup)
 
 
@@ -184,7 +199,7 @@ def render_figures(
     itself, given the stems, so that it need not import this module.)"""
     from slidingarm.plotting import FIGURES, TOOL_FIGURES
     from slidingarm.plotting._worker import draw
-    from slidingarm.study.paper_report import figure_stem
+    from slidingarm.study.paper import figure_stem
 
     names = FIGURES + (TOOL_FIGURES if tool_paths is not None else ())
     wanted = names if only is None else tuple(only)
@@ -215,6 +230,8 @@ def _repr_float(x: object) -> str:
 def _meta(
     command: str | None, seeds: Mapping[str, int], runtime: float, jobs: int
 ) -> dict[str, Any]:
+    import pandas as pd
+
     return {
         "version": __version__,
         "command": command if command is not None else "slidingarm.study.reproduce()",
@@ -540,6 +557,8 @@ def _run(
     figures: bool,
     overwrite: bool,
 ) -> StudyOutput:
+    from slidingarm.study import analysis as A
+
     t0 = time.perf_counter()
     staging = Staging(
         out_dir, scenarios=[scenario.key], inputs=_inputs(scenario), overwrite=overwrite
@@ -676,7 +695,6 @@ def _reproduce(
         # at once, and while this process compiles the loop and simulates, they import
         # matplotlib, draw a first figure and compile the errata's law (all on the other core)
         from slidingarm.plotting import _worker
-        from slidingarm.study.paper_report import figure_stem
 
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
         parts: list[cf.Future[None]] = []
@@ -706,6 +724,9 @@ def _reproduce(
                 paper_law = pool.submit(_worker.warm_up, True, svg)
                 for _ in range(workers - 1):
                     pool.submit(_worker.warm_up, False, svg)
+        from slidingarm.study.paper import figure_stem
+        from slidingarm.study.runs import simulate_setup
+
         setups = {name: s.build() for name, s in scenarios.items()}
         for part in parts:
             with suppress(Exception):  # a part a worker could not compile, the loop compiles
@@ -725,7 +746,7 @@ def _reproduce(
         results: dict[str, dict[str, SimResult]] = {}
         for name, setup in setups.items():
             steps.start(f"{name}: simulating")
-            results[name] = A.simulate_setup(setup)
+            results[name] = simulate_setup(setup)
             steps(f"{name}: simulated", len(setup.controllers))
             if pool is None:
                 continue
@@ -744,6 +765,12 @@ def _reproduce(
 
         for name in setups:
             _stage_runs(staging, name, results[name], steps)
+        # pandas and the analyses only now, while the workers draw: imported before the
+        # workers were forked, they took half a second of the one core then working
+        import pandas as pd
+
+        from slidingarm.study import analysis as A
+
         metrics = A.metrics_table(results)
         _stage_table(staging, "metrics.csv", metrics)
         steps("metrics")
