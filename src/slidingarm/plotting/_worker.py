@@ -11,7 +11,7 @@ worker has its parent's modules already, and imports matplotlib at its first war
 from __future__ import annotations
 
 import ctypes
-import io
+import importlib
 import os
 import signal
 import sys
@@ -89,35 +89,29 @@ def init_worker(parent: int) -> None:
     hold_in_worker()
 
 
-def warm_up(paper_law: bool = False, svg: bool = True) -> None:
+def warm_up(paper_law: bool = False) -> None:
     """Make a worker process ready for its first figure while the main process compiles and
-    simulates: import the plotting stack and draw and save a small figure (in memory), which
-    loads the fonts and fills matplotlib's caches; with ``paper_law``, first
-    :func:`compile_paper_law` (one task, so that the worker that compiles it is warmed up too:
-    a second warm-up task would go to whichever worker is free, the other one). A spawned
-    worker compiles the law first because it shares small kernels with the main process's loop
-    (the model's ``sincos``), which the main process then loads; a forked one inherits them
-    (:func:`slidingarm._engine.prime`). ``svg``: the figures will be saved as SVG too, so the
-    warm-up saves one."""
+    simulates: import the plotting stack (matplotlib, its Agg backend and the plotting code);
+    with ``paper_law``, first :func:`compile_paper_law` (one task, so that the worker that
+    compiles it is made ready too: a second warm-up task would go to whichever worker is
+    free, the other one). A spawned worker compiles the law first because it shares small
+    kernels with the main process's loop (the model's ``sincos``), which the main process
+    then loads; a forked one inherits them (:func:`slidingarm._engine.prime`).
+
+    It draws nothing: drawing and saving a small figure here (which loads the fonts and fills
+    matplotlib's caches) cost 0.15-0.2 CPU-s more than the first real figure then saved, and
+    while the main process compiles the loop the other core has the paper's law and both
+    warm-ups to run."""
     if paper_law:
         compile_paper_law()
-    import matplotlib
-    from matplotlib.figure import Figure
-
-    from slidingarm.plotting._style import PNG_DPI, RC
-
-    with matplotlib.rc_context(RC):
-        fig = Figure(figsize=(2.0, 1.5))
-        ax = fig.subplots()
-        ax.plot([0.0, 1.0], [0.0, 1.0], label="q\u0303\u2081 (rad)")
-        ax.set_yscale("symlog", linthresh=1e-3)
-        ax.set_title("warm-up — τ")
-        ax.legend()
-        fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)
-        if svg:
-            fig.savefig(io.BytesIO(), format="svg")
-    del fig, ax
-    after_task()  # the warm-up figure, and the paper's law's compilation before it
+    for module in (
+        "matplotlib.figure",
+        "matplotlib.backends.backend_agg",
+        "slidingarm.plotting.figures",
+        "slidingarm.plotting._save",
+    ):
+        importlib.import_module(module)
+    after_task()  # the paper's law's compilation
 
 
 def compile_loop_part(index: int) -> None:

@@ -721,9 +721,9 @@ def _reproduce(
                     parts = [
                         pool.submit(_worker.compile_loop_part, i) for i in range(len(E.LOOP_PARTS))
                     ]
-                paper_law = pool.submit(_worker.warm_up, True, svg)
+                paper_law = pool.submit(_worker.warm_up, True)
                 for _ in range(workers - 1):
-                    pool.submit(_worker.warm_up, False, svg)
+                    pool.submit(_worker.warm_up, False)
         from slidingarm.study.paper import figure_stem
         from slidingarm.study.runs import simulate_setup
 
