@@ -1,8 +1,12 @@
 """Time of ``slidingarm reproduce`` from a cold and a warm numba cache, and where it goes
 (issue 12, point 4: under 10 s from a cold cache).
 
-Run as ``python benchmarks/bench_reproduce.py [--runs 3] [--warm-only | --cold-only]``. Each run
-is a fresh process, ``python -m slidingarm reproduce --out <tmp>``, with its own
+Run as ``python benchmarks/bench_reproduce.py [--runs 3] [--warm-only | --cold-only]
+[--checkout]``. It first installs the checkout as the README's main command does (``pip
+install .``, into a temporary folder, without its dependencies, which are those installed:
+:func:`install`), so that it times what a user's ``slidingarm reproduce`` runs; with
+``--checkout``, the package this Python imports (an editable install runs the checkout's
+sources). Each run is a fresh process, ``python -m slidingarm reproduce --out <tmp>``, with its own
 ``NUMBA_CACHE_DIR``: empty for a cold run, filled by the previous cold run for a warm one (so
 the package's own cache folders are neither used nor touched). For each run it prints the
 wall time, the CPU time of the main process and of its children (the figure workers), and the
@@ -80,9 +84,36 @@ if __name__ == "__main__":
 """
 
 
+#: Extra environment of every run: ``PYTHONPATH`` of the installed copy (:func:`install`).
+_ENV: dict[str, str] = {}
+
+
+def install(root: Path) -> None:
+    """Install this checkout as the README's main command does (``pip install .``: a regular
+    install, its modules byte-compiled by pip) into ``root/site``, the dependencies being
+    those already installed, and run every study from there (``PYTHONPATH``). An editable
+    install (the README's test command) has no bytecode of its own modules when
+    ``PYTHONDONTWRITEBYTECODE`` is set, as on this machine: each process then compiles them
+    from source, about 0.3 s more at start-up (``--checkout`` measures that)."""
+    site = root / "site"
+    repo = Path(__file__).resolve().parent.parent
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target", str(site),
+         str(repo)],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    _ENV["PYTHONPATH"] = str(site)
+    where = subprocess.run(
+        [sys.executable, "-c", "import slidingarm; print(slidingarm.__file__)"],
+        env=dict(os.environ, **_ENV), capture_output=True, text=True, check=True,
+    ).stdout.strip()  # fmt: skip
+    if not where.startswith(str(site)):
+        raise SystemExit(f"the installed copy is not the one imported: {where}")
+
+
 def one_run(cache: str, out: Path) -> dict[str, float]:
     """``python -m slidingarm reproduce`` in a fresh process; wall, CPU (self, children)."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg", **_ENV)
     shutil.rmtree(out, ignore_errors=True)
     load = os.getloadavg()[0]
     before = os.times()
@@ -104,7 +135,7 @@ def one_run(cache: str, out: Path) -> dict[str, float]:
 
 
 def phases(cache: str, out: Path, kind: str = "cold") -> None:
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg", **_ENV)
     shutil.rmtree(out, ignore_errors=True)
     with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as fh:
         fh.write(_PHASES)
@@ -141,10 +172,22 @@ def main() -> None:
     kind.add_argument("--cold-only", action="store_true")
     kind.add_argument("--warm-only", action="store_true")
     parser.add_argument("--phases", action="store_true", help="also the per-step timing")
+    parser.add_argument(
+        "--checkout",
+        action="store_true",
+        help="run the package this Python imports (an editable install: the checkout's "
+        "sources) instead of installing the checkout as the README does",
+    )
     args = parser.parse_args()
     root = Path(tempfile.mkdtemp(prefix="bench-reproduce-"))
     rows: dict[str, list[dict[str, float]]] = {"cold": [], "warm": []}
     try:
+        if not args.checkout:
+            install(root)
+        print(
+            "package: "
+            + ("as this Python imports it" if args.checkout else "installed as the README does")
+        )
         for i in range(args.runs):
             cache = str(root / f"cache{i}")
             cold = one_run(cache, root / "out")  # fills the cache (also for --warm-only)
