@@ -144,23 +144,27 @@ def test_the_console_script_runs_exit_handlers_flushes_and_keeps_the_status(
     # exit handler prints still arrives after the command's output, through a pipe (flushed),
     # and the status is main's, for a success and for a user mistake
     code = (
-        "import atexit, sys\n"
+        "import atexit, sys, threading, time\n"
         "atexit.register(lambda: print('handler ran'))\n"
         "sys.argv = ['slidingarm', *sys.argv[1:]]\n"
         "from slidingarm.cli import script\n"
+        # a thread that is not a daemon, still running when the command returns, is waited
+        # for, as the interpreter's shutdown does
+        "threading.Thread(target=lambda: (time.sleep(1.0), print('thread done'))).start()\n"
         "script()\n"
         "raise AssertionError('script returned')\n"
     )
     ok = subprocess.run(
-        [sys.executable, "-c", code, "validate", "sign"],
+        [sys.executable, "-c", code, "--help"],
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert ok.returncode == 0, ok.stderr
-    assert ok.stdout.rstrip("\n").endswith("handler ran") and len(ok.stdout.splitlines()) > 1
+    assert ok.stdout.rstrip("\n").endswith("thread done\nhandler ran")
+    assert len(ok.stdout.splitlines()) > 2
     bad = subprocess.run(
         [sys.executable, "-c", code, "run", "sign"],
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
-    assert bad.returncode == EXIT_USAGE and bad.stdout == "handler ran\n"
+    assert bad.returncode == EXIT_USAGE and bad.stdout == "thread done\nhandler ran\n"
     assert one_line(bad.stderr).startswith("error: slidingarm run: missing option '--out'")
 

@@ -16,6 +16,7 @@ import math
 import os
 import shlex
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -677,10 +678,12 @@ def script() -> NoReturn:
 
     A finished command has written and closed its files (atomically) and joined its worker
     processes; what the interpreter would still do is tear down the modules and objects it
-    holds (numba's compiled code, pandas), about half a second after ``reproduce``. So the
-    exit handlers run (:mod:`atexit`), the standard streams are flushed, and
-    :func:`os._exit` ends the process with the status :func:`main` exited with (a status
-    that is not a number is printed on stderr and exits with 1, as Python does).
+    holds (numba's compiled code, pandas), about half a second after ``reproduce``. So, in the
+    order the interpreter's own shutdown takes, the threads that are not daemons are waited
+    for, the exit handlers run (:mod:`atexit`: multiprocessing's and Dask's clean-ups among
+    them), the standard streams are flushed, and :func:`os._exit` ends the process with the
+    status :func:`main` exited with (a status that is not a number is printed on stderr and
+    exits with 1, as Python does).
     """
     try:
         main()
@@ -692,6 +695,9 @@ def script() -> NoReturn:
     elif not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
+    for thread in threading.enumerate():
+        if thread is not threading.current_thread() and not thread.daemon:
+            thread.join()
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:
