@@ -9,8 +9,9 @@ install .``, into a temporary folder, without its dependencies, which are those 
 sources). Each run is a fresh process, ``python -m slidingarm reproduce --out <tmp>``, with its own
 ``NUMBA_CACHE_DIR``: empty for a cold run, filled by the previous cold run for a warm one (so
 the package's own cache folders are neither used nor touched). For each run it prints the
-wall time, the CPU time of the main process and of its children (the figure workers), and the
-machine's load average; then the median of the wall times of each kind.
+wall time, the CPU time of the main process and of its children (the figure workers), the
+machine's load average and the time of a fixed CPU probe just before it (:func:`host_speed`:
+the machine's speed at that moment); then the median of the wall times of each kind.
 
 With ``--phases`` two more runs (cold, then warm from the cache the cold one filled) go
 through :func:`slidingarm.study.reproduce` in this benchmark's own child process and print the wall and CPU time of each step (the progress
@@ -111,10 +112,22 @@ def install(root: Path) -> None:
         raise SystemExit(f"the installed copy is not the one imported: {where}")
 
 
+def host_speed() -> float:
+    """CPU seconds of a fixed pure-Python loop (3e6 multiply-adds), timed just before a run:
+    this machine's speed drifts by up to 40 % within minutes (its neighbours), and a run's
+    time follows it; comparing two runs means comparing them at the same speed."""
+    start = time.process_time()
+    total = 0
+    for i in range(3_000_000):
+        total += i * i
+    return time.process_time() - start
+
+
 def one_run(cache: str, out: Path) -> dict[str, float]:
     """``python -m slidingarm reproduce`` in a fresh process; wall, CPU (self, children)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg", **_ENV)
     shutil.rmtree(out, ignore_errors=True)
+    speed = host_speed()
     load = os.getloadavg()[0]
     before = os.times()
     t0 = time.perf_counter()
@@ -131,7 +144,7 @@ def one_run(cache: str, out: Path) -> dict[str, float]:
     cpu = (after.children_user - before.children_user) + (
         after.children_system - before.children_system
     )
-    return {"wall": wall, "cpu": cpu, "load": load}
+    return {"wall": wall, "cpu": cpu, "load": load, "speed": speed}
 
 
 def phases(cache: str, out: Path, kind: str = "cold") -> None:
@@ -195,10 +208,13 @@ def main() -> None:
                 rows["cold"].append(cold)
             if not args.cold_only:
                 rows["warm"].append(one_run(cache, root / "out"))
-        print(f"{'run':6s} {'wall s':>8s} {'cpu s':>8s} {'load':>6s}")
+        print(f"{'run':6s} {'wall s':>8s} {'cpu s':>8s} {'load':>6s} {'probe s':>8s}")
         for name, runs in rows.items():
             for r in runs:
-                print(f"{name:6s} {r['wall']:8.2f} {r['cpu']:8.2f} {r['load']:6.2f}")
+                print(
+                    f"{name:6s} {r['wall']:8.2f} {r['cpu']:8.2f} {r['load']:6.2f}"
+                    f" {r['speed']:8.3f}"
+                )
         for name, runs in rows.items():
             if runs:
                 wall = statistics.median(r["wall"] for r in runs)
