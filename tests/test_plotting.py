@@ -404,6 +404,27 @@ def test_a_figure_handed_back_draws_the_next_of_its_layout_as_a_new_figure_would
     _recycle.clear()
 
 
+def test_figures_prepared_in_a_worker_serve_every_figure_of_a_scenario(tmp_path: Path) -> None:
+    # a cold study's figure worker makes the figures of the study's layouts while the loop
+    # compiles (slidingarm.plotting._worker.prepare_figures): every figure of a scenario of
+    # that shape is then drawn into one of them (no figure is made), as a new figure would be
+    from slidingarm.plotting import _recycle
+    from slidingarm.plotting._worker import draw, prepare_figures
+
+    runs = _results(3)
+    _recycle.clear()
+    new = draw(runs, "T", {name: tmp_path / "new" / name for name in FIGURES}, svg=False)
+    _recycle.clear()
+    prepare_figures(3, list(runs))
+    prepared = sorted(map(id, _recycle.held()))
+    assert len(prepared) == 3
+    again = draw(runs, "T", {name: tmp_path / "again" / name for name in FIGURES}, svg=False)
+    assert sorted(map(id, _recycle.held())) == prepared
+    for name in FIGURES:
+        assert again[name].read_bytes() == new[name].read_bytes(), name
+    _recycle.clear()
+
+
 def test_the_study_and_its_report_never_load_matplotlib() -> None:
     # the study's process writes tables and the report only (its forked workers draw): the
     # figure names and controller styles come without matplotlib, the drawing loads it

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib
+import io
 import os
 import signal
 import sys
@@ -89,7 +90,7 @@ def init_worker(parent: int) -> None:
     hold_in_worker()
 
 
-def warm_up(paper_law: bool = False) -> None:
+def warm_up(paper_law: bool = False, layouts: tuple[int, Sequence[str]] | None = None) -> None:
     """Make a worker process ready for its first figure while the main process compiles and
     simulates: import the plotting stack (matplotlib, its Agg backend and the plotting code);
     with ``paper_law``, first :func:`compile_paper_law` (one task, so that the worker that
@@ -98,10 +99,13 @@ def warm_up(paper_law: bool = False) -> None:
     kernels with the main process's loop (the model's ``sincos``), which the main process
     then loads; a forked one inherits them (:func:`slidingarm._engine.prime`).
 
-    It draws nothing: drawing and saving a small figure here (which loads the fonts and fills
-    matplotlib's caches) cost 0.15-0.2 CPU-s more than the first real figure then saved, and
-    while the main process compiles the loop the other core has the paper's law and both
-    warm-ups to run."""
+    With ``layouts = (joints, labels)`` it then makes the figures of every layout a scenario of
+    that many joints and those run labels draws, and hands them back
+    (:func:`prepare_figures`), so that the worker's first figures are drawn into them. A cold
+    study gives it while its main process compiles the loop: the other core, once it has
+    compiled the paper's law, waits for the simulations then (about half a second, more for the
+    worker without the law). Otherwise it draws nothing: a small figure drawn only to load the
+    fonts and fill matplotlib's caches cost 0.15-0.2 CPU-s more than it saved."""
     if paper_law:
         compile_paper_law()
     for module in (
@@ -111,7 +115,35 @@ def warm_up(paper_law: bool = False) -> None:
         "slidingarm.plotting._save",
     ):
         importlib.import_module(module)
+    if layouts is not None:
+        prepare_figures(*layouts)
     after_task()  # the paper's law's compilation
+
+
+def prepare_figures(joints: int, labels: Sequence[str]) -> None:
+    """Draw (in memory) one figure of each layout of :func:`slidingarm.plotting.scenario_figures`
+    for ``joints`` joints and runs labelled ``labels``, on made-up runs, and hand each back
+    (:mod:`slidingarm.plotting._recycle`): the panels of every joint stacked (the tracking,
+    velocity, error and steady-state figures), one joint's panel (joint 1's tracking), and a
+    row per joint and a column per run (torque, sliding variable). The real figures are then
+    drawn into them, as into any figure handed back: the same files as new figures'."""
+    import matplotlib
+    import numpy as np
+
+    from slidingarm.plotting import _recycle, scenario_figures
+    from slidingarm.plotting._style import PNG_DPI, RC
+    from slidingarm.results import SimResult
+
+    t = np.linspace(0.0, 1.0, 64)
+    wave = np.sin(np.outer(t, np.arange(1, joints + 1)))
+    signals = dict.fromkeys(("q", "qd", "q_ref", "qd_ref", "q_meas", "qd_meas", "tau", "s"), wave)
+    made_up = {label: SimResult(t=t, **signals, params={}, seed=None) for label in labels}
+    for name in ("tracking_all", "tracking_joint1", "torque"):
+        fig = scenario_figures(made_up, title="", only=[name])[name]
+        with matplotlib.rc_context(RC):
+            fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)  # the ticks are made in a draw
+        _recycle.give_back(fig)
+    del fig, made_up
 
 
 def compile_loop_part(index: int) -> None:

@@ -698,6 +698,7 @@ def _reproduce(
 
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
         parts: list[cf.Future[None]] = []
+        setups = {name: s.build() for name, s in scenarios.items()}
         cold = not E.loop_cached()
         start = _worker_context()
         if workers and cold and start.get_start_method() == "fork":
@@ -722,12 +723,16 @@ def _reproduce(
                         pool.submit(_worker.compile_loop_part, i) for i in range(len(E.LOOP_PARTS))
                     ]
                 paper_law = pool.submit(_worker.warm_up, True)
+                # cold, the worker without the law has time while this process compiles the
+                # loop: it makes the figures of the study's layouts, and its first figures are
+                # drawn into them (slidingarm.plotting._recycle; the other has the law to do)
+                first = next(iter(setups.values()))
+                layouts = (first.nominal.n, tuple(first.controllers)) if cold else None
                 for _ in range(workers - 1):
-                    pool.submit(_worker.warm_up, False)
+                    pool.submit(_worker.warm_up, False, layouts)
         from slidingarm.study.paper import figure_stem
         from slidingarm.study.runs import simulate_setup
 
-        setups = {name: s.build() for name, s in scenarios.items()}
         for part in parts:
             with suppress(Exception):  # a part a worker could not compile, the loop compiles
                 part.result()
