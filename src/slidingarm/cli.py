@@ -705,4 +705,3 @@ def script() -> NoReturn:
         except (OSError, ValueError):  # a closed pipe or stream: nothing more can reach it
             code = code or EXIT_FAILED
     os._exit(code)
-

@@ -49,13 +49,12 @@ def give_back(fig: Figure) -> None:
 
 def take(key: Hashable) -> tuple[Figure, list[Axes]] | None:
     """A figure of layout ``key`` handed back, reset to the state its maker left it in (with
-    its panels), or ``None``; the figure is tagged again."""
+    its panels), or ``None``."""
     entry = _BIN.pop(key, None)
     if entry is None:
         return None
     fig, axes = entry
-    _reset(fig, axes)
-    tag(fig, key, axes)
+    _reset(fig, axes)  # it keeps its tag
     return fig, axes
 
 

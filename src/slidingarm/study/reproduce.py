@@ -44,6 +44,8 @@ from slidingarm.config import Scenario, Setup
 from slidingarm.models.serial import SerialArm
 from slidingarm.results import SimResult
 from slidingarm.study.output import Staging, csv_bytes
+from slidingarm.study.paper import figure_stem
+from slidingarm.study.runs import simulate_setup
 from slidingarm.study.shipped import SCENARIOS, load_shipped
 
 if TYPE_CHECKING:
@@ -67,6 +69,13 @@ GRID_SCENARIOS: tuple[str, ...] = ("sign", "tanh")
 ERRATA_SCENARIO: str = "sign"
 #: The scenario with the noisy sensor.
 NOISE_SCENARIO: str = "noise"
+
+
+def _empty_table() -> pd.DataFrame:
+    """An empty table (pandas imported when one is made, not with this module)."""
+    import pandas as pd
+
+    return pd.DataFrame()
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,7 +102,7 @@ class StudyOutput:
 
     out_dir: Path
     metrics: pd.DataFrame
-    checks: pd.DataFrame = field(default_factory=lambda: _empty_table())
+    checks: pd.DataFrame = field(default_factory=_empty_table)
     runtime_s: float = 0.0
     files: list[Path] = field(default_factory=list)
     kept: list[Path] = field(default_factory=list)
@@ -102,12 +111,6 @@ class StudyOutput:
     def passed(self) -> bool:
         """Whether every check passed."""
         return bool(self.checks.empty or self.checks["passed"].all())
-
-
-def _empty_table() -> pd.DataFrame:
-    import pandas as pd
-
-    return pd.DataFrame()
 
 
 # pandas and the analyses (slidingarm.study.analysis, slidingarm.study.paper_report) are
@@ -128,9 +131,7 @@ def run_scenario(scenario: Scenario | Setup) -> dict[str, SimResult]:
         If a run diverges.
     """
     setup = scenario.build() if isinstance(scenario, Scenario) else scenario
-    from slidingarm.study import analysis as A
-
-    return A.simulate_setup(setup)
+    return simulate_setup(setup)
 
 
 def scenario_kind(scenario: Scenario) -> ScenarioKind | None:
@@ -193,13 +194,12 @@ def render_figures(
     """Draw and save the figures of one scenario (or ``only`` these) as
     ``fig_dir/<name>_fig<NN>_<figure>.png`` and, with ``svg``, ``.svg`` (the paper's figure number, for the study's
     scenarios; ``<name>_<figure>`` for a figure the paper does not have,
-    :func:`slidingarm.study.paper_report.figure_stem`); return figure name → PNG path. ``tool_paths`` (a
+    :func:`slidingarm.study.paper.figure_stem`); return figure name → PNG path. ``tool_paths`` (a
     serial arm's ``(desired, {label: actual})``, :func:`slidingarm.study.analysis.tool_paths`)
     adds the tool-path figure. (A figure worker runs :func:`slidingarm.plotting._worker.draw`
     itself, given the stems, so that it need not import this module.)"""
     from slidingarm.plotting import FIGURES, TOOL_FIGURES
     from slidingarm.plotting._worker import draw
-    from slidingarm.study.paper import figure_stem
 
     names = FIGURES + (TOOL_FIGURES if tool_paths is not None else ())
     wanted = names if only is None else tuple(only)
@@ -693,7 +693,7 @@ def _reproduce(
         staging.check()
         # figures are drawn in worker processes while this one computes; the workers start
         # at once, and while this process compiles the loop and simulates, they import
-        # matplotlib, draw a first figure and compile the errata's law (all on the other core)
+        # matplotlib, compile the errata's law and (cold) make the study's figure layouts
         from slidingarm.plotting import _worker
 
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
@@ -730,9 +730,6 @@ def _reproduce(
                 layouts = (first.nominal.n, tuple(first.controllers)) if cold else None
                 for _ in range(workers - 1):
                     pool.submit(_worker.warm_up, False, layouts)
-        from slidingarm.study.paper import figure_stem
-        from slidingarm.study.runs import simulate_setup
-
         for part in parts:
             with suppress(Exception):  # a part a worker could not compile, the loop compiles
                 part.result()
