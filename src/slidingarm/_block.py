@@ -146,7 +146,8 @@ _L_JOINT = 7 * W
 _L_G = 8 * W
 _L_MG = 9 * W
 _L_T0 = 10 * W
-_NLV = 11
+_L_T1 = 11 * W
+_NLV = 12
 #: Start of the per-joint rows: ws[J0 + i JS + _X + ln] for joint i.
 J0 = _NLV * W
 _Q = 0 * W
@@ -205,17 +206,16 @@ _VF3 = 52 * W
 _TMAX = 53 * W
 _Q0 = 54 * W
 _QD0 = 55 * W
-# the paper's law (``law = "paper"``): its reaching term, h, the solves' right-hand side and
-# solution, f = -M^{-1} h, and the columns of the centre-of-mass Jacobian of the mass matrix
+# the paper's law (``law = "paper"``): its reaching term, a row of zeros (the input and the
+# velocity of its forward dynamics), the solves' unit input and solution (also the serial
+# plant's solve's right-hand side), and f = -M^{-1} h
 _PR = 56 * W
-_PH = 57 * W
+_PZ = 57 * W
 _PRHS = 58 * W
 _PCOL = 59 * W
 _PF = 60 * W
-_PJX = 61 * W
-_PJY = 62 * W
 #: First metric accumulator row (rows M_* follow, per joint).
-_MACC = 63
+_MACC = 61
 M_SE2 = 0
 M_SE2C = 1
 M_IAE = 2
@@ -311,9 +311,9 @@ def _serial_base(n: int) -> int:
 @njit(inline="always", **_OPT)
 def workspace_size(n: int) -> int:
     """Length of the flat workspace of a block of ``n``-joint runs: the lane scalars, the
-    joints' rows, the mass matrix and its Cholesky factor (``n x n`` rows of ``W`` lanes each:
-    the paper's law's, :func:`_paper_law`, or a serial plant's, :func:`_serial_forward`), then
-    the serial kind's lane scalars and joint rows."""
+    joints' rows, a serial plant's mass matrix and its Cholesky factor (``n x n`` rows of
+    ``W`` lanes each, :func:`_serial_forward`), then the serial kind's lane scalars and joint
+    rows."""
     return _serial_base(n) + _SL_END + n * SJS
 
 
@@ -451,11 +451,13 @@ def _rnea_typed(ws, joints):  # type: ignore[no-untyped-def]
 # rest (bench_block_parts, two processes side by side); the same bits, and a cold compile of
 # 12.4 instead of 15.9 CPU-s.
 def _aba_source(n: int) -> str:
-    """Source of the planar ABA of the plant for ``n`` joints, per lane
+    """Source of the planar ABA for ``n`` joints, per lane
     (:func:`slidingarm.models._kernels.aba_from_angles_into`, its operations in its order):
-    the acceleration at the velocity in joint row ``vrow``, input ``_TAPP`` and the angles'
-    cosines and sines in rows ``crow``, ``srow`` into row ``out``; a pivot that is not
-    positive clears ``_L_OK``.
+    of the arm whose mass, length, centre-of-mass and inertia rows start at joint row
+    ``prow`` (the plant's ``_PM`` or the nominal model's ``_MM``), the acceleration at the
+    velocity in joint row ``vrow``, the input in ``trow``, the gravity in lane row ``grow``
+    and the angles' cosines and sines in rows ``crow``, ``srow``, into row ``out``; a pivot
+    that is not positive clears lane row ``okrow``.
 
     With :math:`\\omega_i = \\sum_{k \\le i} \\dot q_k` and the link vectors :math:`r_i = l_i
     (\\cos\\phi_i, \\sin\\phi_i)`, pass 1 carries the joint's linear velocity down the
@@ -476,8 +478,15 @@ def _aba_source(n: int) -> str:
     form, alternating, in each of six runs; the same bits). Joined with the RK4 stage's
     input and angles into one body, the loop spilled to the stack and ran slower than
     both (0.64-0.81x), so only the ABA has this form."""
-    row = arg = _joint_row
-    lines = ["def aba(ws, joints, vrow, crow, srow, out):", f"    for ln in range({W}):"]
+    arg = _joint_row
+
+    def par(i: int, k: int) -> str:  # row k of the arm's table at joint i, lane ln
+        return f"ws[{J0 + i * JS + k * W} + prow + ln]"
+
+    lines = [
+        "def aba(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out):",
+        f"    for ln in range({W}):",
+    ]
     add = lines.append
     ind = "        "
     add(ind + "wp = 0.0")
@@ -486,7 +495,7 @@ def _aba_source(n: int) -> str:
     for i in range(n):
         add(ind + f"ac{i} = {arg(i, 'crow')}")
         add(ind + f"as{i} = {arg(i, 'srow')}")
-        add(ind + f"pl{i} = {row(i, _PL)}")
+        add(ind + f"pl{i} = {par(i, 1)}")
         add(ind + f"vt{i} = {arg(i, 'vrow')}")
         add(ind + f"w{i} = wp + vt{i}")
         add(ind + f"vx{i} = vxc")
@@ -494,7 +503,7 @@ def _aba_source(n: int) -> str:
         add(ind + f"vxc = vx{i} - w{i} * pl{i} * as{i}")
         add(ind + f"vyc = vy{i} + w{i} * pl{i} * ac{i}")
         add(ind + f"wp = w{i}")
-    add(ind + f"ok = ws[{_L_OK} + ln]")
+    add(ind + "ok = ws[okrow + ln]")
     # pass 2, tip to base: t0..t8 are the child's articulated quantities (ca, cb, cc moved
     # to this joint; dd, de, df, its tau, pa1, pa2 unmoved), zero below the tip
     for ii in range(n):
@@ -510,9 +519,9 @@ def _aba_source(n: int) -> str:
             add(ind + "t1 = cb")
             add(ind + "t2 = cc")
             add(ind + "t6 = t6 + rx * t8 - ry * t7")
-        add(ind + f"m = {row(i, _PM)}")
-        add(ind + f"c = {row(i, _PC)}")
-        add(ind + f"ia = {row(i, _PI)} + m * c * c")
+        add(ind + f"m = {par(i, 0)}")
+        add(ind + f"c = {par(i, 2)}")
+        add(ind + f"ia = {par(i, 3)} + m * c * c")
         add(ind + f"ib = -m * c * as{i}")
         add(ind + f"ic = m * c * ac{i}")
         add(ind + f"fx = ib * w{i} + m * vx{i}")
@@ -528,7 +537,7 @@ def _aba_source(n: int) -> str:
         add(ind + f"pa2 = w{i} * fx + t8")
         add(ind + "ok = ok if d > 0.0 else 0.0")
         add(ind + f"dinv{i} = 1.0 / d")
-        add(ind + f"tau{i} = {row(i, _TAPP)}")
+        add(ind + f"tau{i} = {arg(i, 'trow')}")
         add(ind + f"u{i} = tau{i} - pa0")
         add(ind + f"cvx{i} = vy{i} * vt{i}")
         add(ind + f"cvy{i} = -vx{i} * vt{i}")
@@ -548,11 +557,11 @@ def _aba_source(n: int) -> str:
         add(ind + f"t6 = tau{i}")
         add(ind + "t7 = pa1")
         add(ind + "t8 = pa2")
-    add(ind + f"ws[{_L_OK} + ln] = ok")
+    add(ind + "ws[okrow + ln] = ok")
     # pass 3, base to tip
     add(ind + "alpha = 0.0")
     add(ind + "ax = 0.0")
-    add(ind + f"ay = ws[{_L_G} + ln]")
+    add(ind + "ay = ws[grow + ln]")
     for i in range(n):
         if i > 0:
             add(ind + f"ax += cvx{i} - alpha * pl{i - 1} * as{i - 1}")
@@ -563,15 +572,28 @@ def _aba_source(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _aba(ws: np.ndarray, joints: tuple[int, ...], vrow: int, crow: int, srow: int, out: int) -> None:  # pragma: no cover - typed
+def _aba(  # pragma: no cover - typed
+    ws: np.ndarray,
+    joints: tuple[int, ...],
+    prow: int,
+    vrow: int,
+    trow: int,
+    grow: int,
+    okrow: int,
+    crow: int,
+    srow: int,
+    out: int,
+) -> None:
     """:func:`_aba_source` for ``len(joints)`` joints, generated when numba types it: the
-    velocity in joint row ``vrow``, the angles' cosines and sines in ``crow``, ``srow``, the
-    acceleration into ``out`` (constants where it is inlined)."""
+    arm's table at joint row ``prow``, the velocity in joint row ``vrow``, the input in
+    ``trow``, the gravity in lane row ``grow``, the angles' cosines and sines in ``crow``,
+    ``srow``, the acceleration into ``out``, a pivot that is not positive clearing lane row
+    ``okrow`` (constants where it is inlined)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_aba, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
-def _aba_typed(ws, joints, vrow, crow, srow, out):  # type: ignore[no-untyped-def]
+def _aba_typed(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out):  # type: ignore[no-untyped-def]
     scope: dict[str, object] = {}
     exec(_aba_source(len(joints)), scope)  # our own generated source
     return scope["aba"]
@@ -669,16 +691,16 @@ def _rk4(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool) -> None
         _angles_state(ws, n)
     # each stage's acceleration straight into its row (the ABA reads its inputs from the
     # rows given): no copies between the stages
-    _aba(ws, joints, _QD, _BC, _BS, _K0)
+    _aba(ws, joints, _PM, _QD, _TAPP, _L_G, _L_OK, _BC, _BS, _K0)
     _stage(ws, n, 0.5, h, True, _K0, _K0)
     _stage_angles(ws, n)
-    _aba(ws, joints, _VT, _AC, _AS, _K1)
+    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _K1)
     _stage(ws, n, 0.5, h, False, _K1, _K0)
     _stage_angles(ws, n)
-    _aba(ws, joints, _VT, _AC, _AS, _K2)
+    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _K2)
     _stage(ws, n, 1.0, h, False, _K2, _K1)
     _stage_angles(ws, n)
-    _aba(ws, joints, _VT, _AC, _AS, _KX)
+    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _KX)
     _rk4_finish(ws, n, h)
 
 
@@ -865,38 +887,6 @@ def _load_serial(ws: np.ndarray, n: int, pp: np.ndarray, mp: np.ndarray) -> None
             for ln in range(W):
                 ws[so + _SP + r * W + ln] = pp[r, j, ln]
                 ws[so + _SM + r * W + ln] = mp[r, j, ln]
-
-
-@njit(**_OPT)
-def _cholesky_solve(ws: np.ndarray, n: int, lb: int, rhs: int, out: int) -> None:
-    """Per lane, solve :math:`L L^T x = b` with the Cholesky factor at ``lb`` (row ``a``,
-    column ``b`` at ``lb + (a n + b) W``), ``b`` the joint rows at offset ``rhs``, ``x`` into
-    those at ``out``: the substitutions of
-    :func:`slidingarm.models._kernels.cholesky_solve_into`, in its order."""
-    for i in range(n):
-        oi = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            ws[_L_T0 + ln] = ws[oi + rhs + ln]
-        for k in range(i):
-            ok = (J0 + k * JS) & _NONNEG
-            at = (lb + (i * n + k) * W) & _NONNEG
-            for ln in range(W):
-                ws[_L_T0 + ln] -= ws[at + ln] * ws[ok + out + ln]
-        ii = (lb + (i * n + i) * W) & _NONNEG
-        for ln in range(W):
-            ws[oi + out + ln] = ws[_L_T0 + ln] / ws[ii + ln]
-    for i in range(n - 1, -1, -1):
-        oi = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            ws[_L_T0 + ln] = ws[oi + out + ln]
-        for k in range(i + 1, n):
-            ok = (J0 + k * JS) & _NONNEG
-            at = (lb + (k * n + i) * W) & _NONNEG
-            for ln in range(W):
-                ws[_L_T0 + ln] -= ws[at + ln] * ws[ok + out + ln]
-        ii = (lb + (i * n + i) * W) & _NONNEG
-        for ln in range(W):
-            ws[oi + out + ln] = ws[_L_T0 + ln] / ws[ii + ln]
 
 
 # ------------------------------------------------------------------ the serial kind, per lane
@@ -1261,11 +1251,12 @@ def _serial_mass_typed(ws, joints, tab, mb):  # type: ignore[no-untyped-def]
 def _serial_solve_source(n: int) -> str:
     """Source of the serial plant's solve for ``n`` joints, :math:`M x = b` per lane with
     ``M`` at :func:`_serial_forward`'s rows, ``b`` in joint rows ``_PRHS`` and ``x`` into
-    ``_KX``: the Cholesky factorisation and substitutions of
-    :func:`slidingarm.models._kernels.cholesky_solve_into`, in its order, written out for
-    each entry (a lane loop each, at constant offsets). Written as loops over the entries,
-    LLVM did not unroll them (too large once nested) and the whole solve stayed scalar per
-    lane (measured: no vector instruction in it); written out, each lane loop is vector code.
+    ``_KX``: the Cholesky factorisation :math:`M = L L^T` row by row
+    (:math:`L_{ij} = (M_{ij} - \\sum_{k<j} L_{ik} L_{jk}) / L_{jj}`, the diagonal by a square
+    root), then the forward and back substitutions, written out for each entry (a lane loop
+    each, at constant offsets). Written as loops over the entries, LLVM did not unroll them
+    (too large once nested) and the whole solve stayed scalar per lane (measured: no vector
+    instruction in it); written out, each lane loop is vector code.
     A lane with a pivot that is not positive clears ``_L_OK`` and takes 1 for it, so that its
     state stays finite and the run is reported singular (code, sample and joint 0), as the
     per-run loop's articulated-body pass reports it (a NaN pivot passes through: a non-finite
@@ -1417,101 +1408,39 @@ def _serial_torque(ws: np.ndarray, n: int) -> None:
 
 @njit(**_OPT)
 def _paper_law(ws: np.ndarray, joints: tuple[int, ...]) -> None:
-    r"""The paper's law per lane (:func:`slidingarm.control._kernels.paper_entry`), from the
-    angles of the measurement in ``_LC``, ``_LS``, ``nu`` in ``_NU`` and ``r`` in ``_PR``:
-    :math:`h` by the RNEA at zero acceleration, :math:`M` as
-    :func:`slidingarm.models._kernels._mass_from_angles` builds it, its Cholesky factor,
-    :math:`f = -M^{-1} h` and :math:`g_i = [M^{-1}]_{ii}` by solves, and
-    :math:`\tau_i = (-f_i - \nu_i) / g_i - r_i` into ``_TAU``; the same operations in the same
-    order as the scalar law. Where the scalar factorisation stops at a pivot that is not
-    positive (a non-finite measurement, for a planar arm with positive masses), a lane
-    computes on; the run is reported non-finite either way."""
+    r"""The paper's law per lane (:func:`slidingarm.control._kernels.paper_entry`, its
+    operations in its order), from the angles of the measurement in ``_LC``, ``_LS``,
+    ``nu`` in ``_NU`` and ``r`` in ``_PR``: :math:`f = -\hat M^{-1} \hat h` by the nominal
+    model's ABA (:func:`_aba`) at the measured velocity ``_QDM`` under no torque into
+    ``_PF``, each :math:`\hat M^{-1} e_i` by the ABA at rest, without gravity, under the unit
+    torque :math:`e_i` into ``_PCOL``, and :math:`\tau_i = (-f_i - \nu_i) / g_i - r_i`,
+    :math:`g_i = [\hat M^{-1}]_{ii}`, into ``_TAU``. A lane where a pivot of those ABAs is
+    not positive (lane row ``_L_T0`` cleared) gets NaN torques, as the scalar law."""
     n = len(joints)
-    mb = (J0 + n * JS) & _NONNEG
-    lb = (mb + n * n * W) & _NONNEG
+    for ln in range(W):
+        ws[_L_T0 + ln] = 1.0
+        ws[_L_T1 + ln] = 0.0
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
-            ws[o + _ACC + ln] = 0.0
-    _rnea(ws, joints)
-    for j in range(n):
-        o = (J0 + j * JS) & _NONNEG
-        for ln in range(W):
-            ws[o + _PH + ln] = ws[o + _TAU + ln]
-    for a in range(n * n):
-        at = (mb + a * W) & _NONNEG
-        for ln in range(W):
-            ws[at + ln] = 0.0
-    for i in range(n):
-        oi = (J0 + i * JS) & _NONNEG
-        for ln in range(W):
-            ws[oi + _PJX + ln] = -ws[oi + _MC + ln] * ws[oi + _LS + ln]
-            ws[oi + _PJY + ln] = ws[oi + _MC + ln] * ws[oi + _LC + ln]
-        for j in range(i - 1, -1, -1):
-            oj = (J0 + j * JS) & _NONNEG
-            on = (J0 + (j + 1) * JS) & _NONNEG
-            for ln in range(W):
-                ws[oj + _PJX + ln] = ws[on + _PJX + ln] - ws[oj + _ML + ln] * ws[oj + _LS + ln]
-                ws[oj + _PJY + ln] = ws[on + _PJY + ln] + ws[oj + _ML + ln] * ws[oj + _LC + ln]
-        for a in range(i + 1):
-            oa = (J0 + a * JS) & _NONNEG
-            for b in range(a, i + 1):
-                ob = (J0 + b * JS) & _NONNEG
-                at = (mb + (a * n + b) * W) & _NONNEG
-                for ln in range(W):
-                    ws[at + ln] += (
-                        ws[oi + _MM + ln]
-                        * (
-                            ws[oa + _PJX + ln] * ws[ob + _PJX + ln]
-                            + ws[oa + _PJY + ln] * ws[ob + _PJY + ln]
-                        )
-                        + ws[oi + _MI + ln]
-                    )
-    for a in range(n):
-        for b in range(a):
-            at = (mb + (a * n + b) * W) & _NONNEG
-            bt = (mb + (b * n + a) * W) & _NONNEG
-            for ln in range(W):
-                ws[at + ln] = ws[bt + ln]
-    # the factor, as cholesky_solve_into computes it (the scalar law refactors M for each of
-    # its n + 1 solves; the factor is the same each time)
-    for i in range(n):
-        for j in range(i + 1):
-            ij = (lb + (i * n + j) * W) & _NONNEG
-            for ln in range(W):
-                ws[_L_T0 + ln] = ws[mb + (i * n + j) * W + ln]
-            for k in range(j):
-                ik = (lb + (i * n + k) * W) & _NONNEG
-                jk = (lb + (j * n + k) * W) & _NONNEG
-                for ln in range(W):
-                    ws[_L_T0 + ln] -= ws[ik + ln] * ws[jk + ln]
-            if i == j:
-                for ln in range(W):
-                    ws[ij + ln] = math.sqrt(ws[_L_T0 + ln])
-            else:
-                jj = (lb + (j * n + j) * W) & _NONNEG
-                for ln in range(W):
-                    ws[ij + ln] = ws[_L_T0 + ln] / ws[jj + ln]
-    for j in range(n):
-        o = (J0 + j * JS) & _NONNEG
-        for ln in range(W):
-            ws[o + _PRHS + ln] = -ws[o + _PH + ln]
-    _cholesky_solve(ws, n, lb, _PRHS, _PCOL)
-    for j in range(n):
-        o = (J0 + j * JS) & _NONNEG
-        for ln in range(W):
-            ws[o + _PF + ln] = ws[o + _PCOL + ln]
+            ws[o + _PZ + ln] = 0.0
+    _aba(ws, joints, _MM, _QDM, _PZ, _L_MG, _L_T0, _LC, _LS, _PF)
     for i in range(n):
         for j in range(n):
             o = (J0 + j * JS) & _NONNEG
+            unit = 1.0 if j == i else 0.0
             for ln in range(W):
-                ws[o + _PRHS + ln] = 1.0 if j == i else 0.0
-        _cholesky_solve(ws, n, lb, _PRHS, _PCOL)
+                ws[o + _PRHS + ln] = unit
+        _aba(ws, joints, _MM, _PZ, _PRHS, _L_T1, _L_T0, _LC, _LS, _PCOL)
         oi = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[oi + _TAU + ln] = (
                 (-ws[oi + _PF + ln] - ws[oi + _NU + ln]) / ws[oi + _PCOL + ln] - ws[oi + _PR + ln]
             )
+    for i in range(n):
+        oi = (J0 + i * JS) & _NONNEG
+        for ln in range(W):
+            ws[oi + _TAU + ln] = ws[oi + _TAU + ln] if ws[_L_T0 + ln] != 0.0 else np.nan
 
 
 @njit(**_OPT)

@@ -73,7 +73,8 @@ _borrow = PK.borrow
 
 
 # rows of the per-run workspace (n columns): state and measurement vectors, the held input,
-# the RK4 scratch, the control work rows, and the (n, n) matrices M and its Cholesky factor
+# the RK4 scratch, the control work rows, and the law's (2 n, n) scratch ``mats`` (a custom
+# law is handed the mass matrix in its first n rows)
 _Q = 0
 _QD = 1
 _QM = 2

@@ -193,8 +193,9 @@ def test_the_kernel_is_compiled_for_a_joint_count_that_is_a_positive_integer() -
 
 @pytest.mark.slow  # the paper's law has a block kernel of its own (about 15 s to compile)
 def test_the_papers_law_on_the_block_path_equals_the_scalar_path() -> None:
-    """``law="paper"`` (eqs. 19-22: M^-1 by Cholesky solves per lane) beside ``law="model"``
-    in one batch, every surface and both reaching laws: the same bits on both paths."""
+    """``law="paper"`` (eqs. 19-22: f and the diagonal of M^-1 by the nominal model's ABA per
+    lane) beside ``law="model"`` in one batch, every surface and both reaching laws: the same
+    bits on both paths."""
     gains = {"alpha": 2, "beta": 2, "p": 5, "q": 3, "k": 20}
     ctrls: list[sa.Controller] = [
         sa.FTSMC(ARM, switching="tanh", width=0.05, law="paper", **gains),

@@ -197,36 +197,47 @@ def paper_entry(
     work: np.ndarray,
 ) -> None:
     """The paper's law (eqs. 19-22) into ``tau_out``, given ``nu`` and ``r`` in their
-    ``work`` rows (see :func:`control_into`); ``mats`` is (2 n, n) scratch. The signature is
-    the custom-law entry's (:data:`slidingarm.control._dispatch.ENTRY_SIGNATURE`), unused
+    ``work`` rows (see :func:`control_into`); ``mats`` is unused. The signature is the
+    custom-law entry's (:data:`slidingarm.control._dispatch.ENTRY_SIGNATURE`), unused
     arguments included.
 
+    :math:`f = -\\hat M^{-1}\\hat h` and the diagonal :math:`g_i = [\\hat M^{-1}]_{ii}` come
+    from the nominal model's forward dynamics
+    (:func:`slidingarm.models._dispatch.forward_dynamics`; the articulated-body algorithm for
+    the planar kind): :math:`f` is the acceleration at ``(q, qd)`` under no torque, and
+    :math:`\\hat M^{-1} e_i` the acceleration at rest, without gravity, under the unit
+    torque :math:`e_i`, so that no mass matrix is formed or factorised. Then
+    :math:`\\tau_i = (-f_i - \\nu_i)/g_i - r_i`. Where the mass matrix is not positive
+    definite (a pivot of the forward dynamics that is not positive: for a planar arm with
+    positive masses, a non-finite measurement), every torque is NaN, which ends the run as
+    non-finite. The block loop's :func:`slidingarm._block._paper_law` does the same
+    operations in the same order.
+
     Reached through a function pointer: it serves only the errata, so it is compiled (and
-    cached) when a controller with ``law="paper"`` is first made, not with the loop.
+    cached) when a controller with ``law="paper"`` is first made, not with the loop. Built on
+    the forward dynamics that the loop's RK4 step compiles too (the planar ABA), its first
+    compilation finds that in numba's cache: about 0.75 CPU-s, where forming and factorising
+    :math:`\\hat M` took 1.6.
     """
     n = q.shape[0]
-    mmat = mats[:n]
-    lw = mats[n : 2 * n]
     nu = work[_ROW_NU]
     r = work[_ROW_R]
-    # h into acc (no longer needed), f = -M^{-1} h into f_saved
-    h = work[_ROW_ACC]
-    MD.mass_and_bias(mkind, mparams, g, q, qd, mmat, h, work)
-    rhs = work[_ROW_RHS]
+    zero = work[_ROW_ACC]
+    unit = work[_ROW_RHS]
     col = work[_ROW_COL]
-    f_saved = work[_ROW_F]
+    f = work[_ROW_F]
     for j in range(n):
-        rhs[j] = -h[j]
-    MD.cholesky_solve_into(mmat, rhs, col, lw)
-    for j in range(n):
-        f_saved[j] = col[j]
+        zero[j] = 0.0
+    ok = MD.forward_dynamics(mkind, mparams, g, q, qd, zero, f, work)
     for i in range(n):
-        # g_i = [M^{-1}]_ii: solve M x = e_i, take x_i
         for j in range(n):
-            rhs[j] = 0.0
-        rhs[i] = 1.0
-        MD.cholesky_solve_into(mmat, rhs, col, lw)
-        tau_out[i] = (-f_saved[i] - nu[i]) / col[i] - r[i]
+            unit[j] = 0.0
+        unit[i] = 1.0
+        ok &= MD.forward_dynamics(mkind, mparams, 0.0, q, zero, unit, col, work)
+        tau_out[i] = (-f[i] - nu[i]) / col[i] - r[i]
+    if not ok:
+        for i in range(n):
+            tau_out[i] = np.nan
 
 
 @njit(cache=True, nogil=True, error_model="numpy", forceinline=True)

@@ -30,10 +30,6 @@ from slidingarm._pointers import as_writable as _w
 from slidingarm.models import _kernels as PK
 from slidingarm.models import _spatial as SK
 
-#: Solve ``a x = b`` for a symmetric positive definite ``a`` by Cholesky (no model in it:
-#: plain linear algebra that the laws share with the planar kind).
-cholesky_solve_into = PK.cholesky_solve_into
-
 #: Kind codes.
 KIND_PLANAR = 0
 KIND_SERIAL = 1

@@ -33,8 +33,6 @@ forward dynamics the articulated-body algorithm (both O(n), neither forms :math:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, types
 from numba.core import cgutils
@@ -47,7 +45,6 @@ __all__ = [
     "aba_from_angles_into",
     "angles_into",
     "bias_into",
-    "cholesky_solve_into",
     "coriolis_into",
     "forward_dynamics_into",
     "gravity_into",
@@ -305,39 +302,6 @@ def _rnea_from_angles(
         fx += gx
         fy += gy
         out[i] = mom
-
-
-@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
-def cholesky_solve_into(a: np.ndarray, b: np.ndarray, out: np.ndarray, lw: np.ndarray) -> bool:
-    """Solve ``a x = b`` for symmetric positive definite ``a`` (n, n) by Cholesky.
-
-    ``lw`` is an (n, n) scratch array for the factor; ``out`` may be ``b`` (solved in place).
-    Returns ``False`` if ``a`` is not
-    positive definite (then ``out`` is left undefined).
-    """
-    n = b.shape[0]
-    for i in range(n):
-        for j in range(i + 1):
-            s = a[i, j]
-            for k in range(j):
-                s -= lw[i, k] * lw[j, k]
-            if i == j:
-                if not s > 0.0:
-                    return False
-                lw[i, i] = math.sqrt(s)
-            else:
-                lw[i, j] = s / lw[j, j]
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= lw[i, k] * out[k]
-        out[i] = s / lw[i, i]
-    for i in range(n - 1, -1, -1):
-        s = out[i]
-        for k in range(i + 1, n):
-            s -= lw[k, i] * out[k]
-        out[i] = s / lw[i, i]
-    return True
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
