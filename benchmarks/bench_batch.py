@@ -35,6 +35,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+import _host
 import _numba_reference as NR
 import slidingarm as sa
 from slidingarm.references import PAPER_Q0
@@ -209,6 +210,7 @@ def main() -> None:
     saved = numba.config.NUMBA_NUM_THREADS
     print(f"paper arm, FTSMC sign, record='metrics', {STEPS} steps a run; median of {repeats}")
     print(agreement)
+    print(_host.describe())
     print(f"load average at start: {os.getloadavg()}")
     header = (
         f"{'threads':>7} {'B':>6} {'block':>10} {'scalar':>10} {'prange ref':>10} "

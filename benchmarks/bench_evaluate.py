@@ -40,6 +40,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+import _host
 import slidingarm as sa
 from slidingarm.control import _dispatch as LD
 from slidingarm.references import PAPER_Q0
@@ -108,6 +109,7 @@ def main() -> None:
         cpu[turn] = time.thread_time_ns() - c0
     load1 = os.getloadavg()[0]
 
+    print(_host.describe())
     print(
         f"{calls} calls of each, in {turns} turns of {BLOCK}, timed by the {args.clock} clock; "
         f"load average {load0:.2f} -> {load1:.2f}; the thread ran {cpu.sum() / wall.sum():.1%} "

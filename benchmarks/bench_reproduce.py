@@ -33,6 +33,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import _host
+
 _PHASES = r"""
 import collections, json, os, sys, time
 from numba.core import event
@@ -197,6 +199,7 @@ def main() -> None:
     try:
         if not args.checkout:
             install(root)
+        print(_host.describe())
         print(
             "package: "
             + ("as this Python imports it" if args.checkout else "installed as the README does")

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import platform
 import time
 from collections.abc import Callable
 from typing import Any
@@ -27,6 +26,7 @@ import numba
 import numpy as np
 from numba import njit
 
+import _host
 from slidingarm import _vecmath as vm
 
 _FLAGS: dict[str, Any] = {"error_model": "numpy", "fastmath": {"contract"}}
@@ -90,8 +90,9 @@ def main() -> None:
         ap.error("--n and --repeats must be at least 1")
     clock = time.thread_time if args.clock == "cpu" else time.perf_counter
 
+    print(f"# {_host.describe()}")
     print(
-        f"# {platform.processor() or platform.machine()}, numba {numba.__version__}, "
+        f"# numba {numba.__version__}, "
         f"n = {args.n}, {args.repeats} repeats, {args.clock} clock, "
         f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
     )
