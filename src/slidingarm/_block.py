@@ -27,8 +27,8 @@ on for this module's compilation only. The joint count ``n`` is a compile-time c
 joint's iteration leaves for the next stays in registers instead of the workspace. A lane
 loop that calls libm (``math.sin``, ``cos``, ``tanh``, ``pow``) stays scalar, so those calls
 have loops of their own and the arithmetic around them still vectorises. The two passes that
-hand many values from joint to joint, the plant's articulated-body algorithm and the nominal
-model's RNEA, have the other form: one lane loop whose body is the whole pass over the joints
+hand many values from joint to joint, the articulated-body algorithm (the plant's, and the
+nominal model's in the paper's law) and the nominal model's RNEA, have the other form: one lane loop whose body is the whole pass over the joints
 with its values in local variables (source generated per joint count, :func:`_aba_source`,
 :func:`_rnea_source`); LLVM's loop vectoriser turns it into ``<8 x double>`` code that keeps
 those values in registers instead of storing each to the workspace and loading it back.
@@ -1413,7 +1413,8 @@ def _paper_law(ws: np.ndarray, joints: tuple[int, ...]) -> None:
     ``nu`` in ``_NU`` and ``r`` in ``_PR``: :math:`f = -\hat M^{-1} \hat h` by the nominal
     model's ABA (:func:`_aba`) at the measured velocity ``_QDM`` under no torque into
     ``_PF``, each :math:`\hat M^{-1} e_i` by the ABA at rest, without gravity, under the unit
-    torque :math:`e_i` into ``_PCOL``, and :math:`\tau_i = (-f_i - \nu_i) / g_i - r_i`,
+    torque :math:`e_i` (in ``_PRHS``; the zero velocity and input in ``_PZ``, the zero gravity
+    in lane row ``_L_T1``) into ``_PCOL``, and :math:`\tau_i = (-f_i - \nu_i) / g_i - r_i`,
     :math:`g_i = [\hat M^{-1}]_{ii}`, into ``_TAU``. A lane where a pivot of those ABAs is
     not positive (lane row ``_L_T0`` cleared) gets NaN torques, as the scalar law."""
     n = len(joints)

@@ -23,6 +23,7 @@ import pickle
 import re
 import zlib
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,9 @@ from slidingarm import (
     TSMC,
     PaperReference,
     PlanarArm,
+    SerialArm,
     SlidingModeController,
+    robots,
     simulate,
 )
 from slidingarm.control import _kernels as CK
@@ -67,7 +70,7 @@ WIDTH = 0.05
 
 #: Relative rounding tolerance of the model law (a 3x3 product and sums of O(1) terms).
 RTOL_MODEL = 1e3 * EPS
-#: The paper's law divides by [M^-1]_ii and solves with M: allow for cond(M) (< 1e3 here).
+#: The paper's law divides by [M^-1]_ii (it and f from the ABA): allow for cond(M) (< 1e3 here).
 RTOL_PAPER = 1e6 * EPS
 
 
@@ -506,8 +509,8 @@ def _numpy_law(
     s = c.surface.value(e, ed)
     nu = c.surface.nu(e, ed)
     r = k * _phi(c.switching, s, width)
-    m = ARM.mass_matrix(q)
-    h = ARM.bias(q, qd)
+    m = c.model.mass_matrix(q)
+    h = c.model.bias(q, qd)
     if c.law == "model":
         a = qddr - nu - r
         return m @ a + h, s, np.abs(m) @ np.abs(a) + np.abs(h) + np.abs(qddr)
@@ -561,6 +564,56 @@ def test_exact_model_law_gives_the_reaching_law() -> None:
             # rounding: the solve with M (cond < 1e3) and ν up to 1e4 (inside the guard)
             lhs, rhs = qdd - qddr + nu, -20.0 * np.tanh(s / WIDTH)
             assert np.all(np.abs(lhs - rhs) <= 1e-9 * (1.0 + np.abs(nu) + np.abs(qdd))), (lhs, rhs)
+
+
+def _ur5(massless_tip: bool = False) -> SerialArm:
+    """The shipped UR5, or the UR5 with no mass nor inertia in its last link (a URDF the loader
+    accepts; its mass matrix is singular at every state)."""
+    if not massless_tip:
+        return robots.load("ur5")
+    text = (Path(robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
+    head, tail = text.split('<link name="wrist_3_link">', 1)
+    _inertial, rest = tail.split("</inertial>", 1)
+    empty = (
+        '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
+        '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
+    )
+    return SerialArm.from_urdf(head + '<link name="wrist_3_link">' + empty + "</inertial>" + rest)
+
+
+def test_paper_law_on_a_serial_model_is_eqs_19_to_22() -> None:
+    """The paper's law with a serial nominal model (the UR5): f and the diagonal of M^-1 from
+    its articulated-body algorithm, against numpy's inverse of its mass matrix, to within the
+    rounding that cond(M) allows."""
+    ur5 = _ur5()
+    k = np.linspace(15.0, 25.0, 6)
+    c = FTSMC(ur5, alpha=2.0, beta=2.0, p=5, q=3, k=k, switching="tanh", width=WIDTH, law="paper")
+    rng = np.random.default_rng(1922)
+    for _ in range(40):
+        q, qr = rng.uniform(-np.pi, np.pi, (2, 6))
+        qd, qdr = rng.uniform(-2.0, 2.0, (2, 6))
+        qddr = rng.uniform(-5.0, 5.0, 6)
+        tau, s = c.evaluate(q, qd, qr, qdr, qddr)
+        tau_np, s_np, scale = _numpy_law(c, k, WIDTH, q, qd, qr, qdr, qddr)
+        np.testing.assert_allclose(s, s_np, rtol=1e-13, atol=1e-13)
+        cond = np.linalg.cond(ur5.mass_matrix(q))
+        assert np.all(np.abs(tau - tau_np) <= 100.0 * cond * EPS * scale), (tau, tau_np, cond)
+        np.testing.assert_array_equal(c(q, qd, qr, qdr, qddr), tau)
+
+
+def test_paper_law_refuses_a_model_without_an_inverse_mass_matrix() -> None:
+    """A nominal model whose mass matrix is singular at a finite state (a massless tip): the
+    paper's law, which needs M^-1, gives NaN for every torque (ending a run as non-finite),
+    and ``evaluate`` says why; the model law (no M^-1) is unaffected."""
+    arm = _ur5(massless_tip=True)
+    gains: dict[str, Any] = {"alpha": 2.0, "beta": 2.0, "p": 5, "q": 3, "k": 20.0}
+    state = (np.full(6, 0.3), np.full(6, 0.1), np.zeros(6), np.zeros(6), np.zeros(6))
+    paper = FTSMC(arm, switching="tanh", width=WIDTH, law="paper", **gains)
+    assert np.all(np.isnan(paper(*state)))
+    with pytest.raises(ValueError, match="mass matrix, which is not positive definite"):
+        paper.evaluate(*state)
+    tau, _ = FTSMC(arm, switching="tanh", width=WIDTH, **gains).evaluate(*state)
+    assert np.all(np.isfinite(tau))
 
 
 def test_paper_law_differs_from_the_model_law() -> None:

@@ -59,8 +59,8 @@ CF_EPS_E = 6
 NCF = 7
 
 # rows of the control workspace after the dynamics' MD.WORK_ROWS: nu, r, the commanded
-# acceleration, the paper's law's right-hand side, solution and f, and the bias h that the
-# engine hands to a custom law
+# acceleration (also the paper's law's row of zeros), the paper's law's unit input, its
+# solution and f, and the bias h that the engine hands to a custom law
 _ROW_NU = MD.WORK_ROWS
 _ROW_R = MD.WORK_ROWS + 1
 _ROW_ACC = MD.WORK_ROWS + 2
@@ -204,13 +204,14 @@ def paper_entry(
     :math:`f = -\\hat M^{-1}\\hat h` and the diagonal :math:`g_i = [\\hat M^{-1}]_{ii}` come
     from the nominal model's forward dynamics
     (:func:`slidingarm.models._dispatch.forward_dynamics`; the articulated-body algorithm for
-    the planar kind): :math:`f` is the acceleration at ``(q, qd)`` under no torque, and
+    either kind): :math:`f` is the acceleration at ``(q, qd)`` under no torque, and
     :math:`\\hat M^{-1} e_i` the acceleration at rest, without gravity, under the unit
     torque :math:`e_i`, so that no mass matrix is formed or factorised. Then
     :math:`\\tau_i = (-f_i - \\nu_i)/g_i - r_i`. Where the mass matrix is not positive
     definite (a pivot of the forward dynamics that is not positive: for a planar arm with
-    positive masses, a non-finite measurement), every torque is NaN, which ends the run as
-    non-finite. The block loop's :func:`slidingarm._block._paper_law` does the same
+    positive masses, a non-finite measurement; for a serial nominal model, also a singular
+    one at a finite state, a massless body at the tip), every torque is NaN, which ends the
+    run as non-finite. The block loop's :func:`slidingarm._block._paper_law` does the same
     operations in the same order.
 
     Reached through a function pointer: it serves only the errata, so it is compiled (and

@@ -604,8 +604,9 @@ class SlidingModeController(Controller):
         Raises
         ------
         ValueError
-            On a wrong shape, a non-finite input, a missing ``dt`` for a stateful law, or a
-            state whose torque overflows float64.
+            On a wrong shape, a non-finite input, a missing ``dt`` for a stateful law, a
+            state whose torque overflows float64, or (the paper's law) a nominal model whose
+            mass matrix is not positive definite at the state.
         """
         n = self._n
         # checked after the inputs (a call with both wrong names the input), as it always was
@@ -659,6 +660,15 @@ class SlidingModeController(Controller):
         bad = np.flatnonzero(~(np.isfinite(tau) & np.isfinite(s)))
         if bad.size:
             self._state[:] = state
+            if self._law == "paper" and not _positive_definite(
+                self._model.mass_matrix(arrays[0])
+            ):
+                # the paper's law's NaN torques (CK.paper_entry) at a finite state: its M^-1
+                # does not exist there (an overflow also gives NaN: the message below)
+                raise ValueError(
+                    "the paper's law needs the inverse of the nominal model's mass matrix, "
+                    "which is not positive definite at this state (a massless body at the tip?)"
+                )
             self._overflow(int(bad[0]), arrays[1])
         return tau, s
 
@@ -686,6 +696,15 @@ class SlidingModeController(Controller):
         ed = np.asarray(qd, dtype=float) - np.asarray(qd_ref, dtype=float)
         return self._surface.value(e, ed)
 
+
+
+def _positive_definite(m: FloatArray) -> bool:
+    """Whether the symmetric matrix ``m`` is positive definite (a Cholesky factor exists)."""
+    try:
+        np.linalg.cholesky(m)
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 #: The largest sampled terminal gain :math:`\beta\gamma\varepsilon_e^{\gamma-1}T_s` the
 #: automatic guard allows (:func:`guard_for_period`).
