@@ -697,7 +697,6 @@ class SlidingModeController(Controller):
         return self._surface.value(e, ed)
 
 
-
 def _positive_definite(m: FloatArray) -> bool:
     """Whether the symmetric matrix ``m`` is positive definite (a Cholesky factor exists)."""
     try:
@@ -705,6 +704,7 @@ def _positive_definite(m: FloatArray) -> bool:
     except np.linalg.LinAlgError:
         return False
     return True
+
 
 #: The largest sampled terminal gain :math:`\beta\gamma\varepsilon_e^{\gamma-1}T_s` the
 #: automatic guard allows (:func:`guard_for_period`).

@@ -121,12 +121,12 @@ def warm_up(paper_law: bool = False, layouts: tuple[int, Sequence[str]] | None =
 
 def prepare_figures(joints: int, labels: Sequence[str]) -> None:
     """Draw (without rendering) one figure of each layout of
-    :func:`slidingarm.plotting.scenario_figures`
-    for ``joints`` joints and runs labelled ``labels``, on made-up runs, and hand each back
-    (:mod:`slidingarm.plotting._recycle`): the panels of every joint stacked (the tracking,
-    velocity, error and steady-state figures), one joint's panel (joint 1's tracking), and a
-    row per joint and a column per run (torque, sliding variable). The real figures are then
-    drawn into them, as into any figure handed back: the same files as new figures'."""
+    :func:`slidingarm.plotting.scenario_figures` for ``joints`` joints and runs labelled
+    ``labels``, on made-up runs, and hand each back (:mod:`slidingarm.plotting._recycle`): the
+    panels of every joint stacked (the tracking, velocity, error and steady-state figures), one
+    joint's panel (joint 1's tracking), and a row per joint and a column per run (torque,
+    sliding variable). The real figures are then drawn into them, as into any figure handed
+    back: the same files as new figures'."""
     import matplotlib
     import numpy as np
 
