@@ -49,6 +49,7 @@ from numba import njit
 
 from slidingarm import FTSMC, QuinticReference, robots, simulate
 from slidingarm import _engine as E
+from slidingarm._pointers import INLINED
 from slidingarm.control import _dispatch as LD
 from slidingarm.control import _kernels as CK
 from slidingarm.models import _dispatch as D
@@ -184,8 +185,8 @@ def _law_loop(kind, p, g, lp, q, qd, qr, qdr, qddr, tau, s):  # type: ignore[no-
     state = np.zeros(q.shape[1])
     for i in range(q.shape[0]):
         CK.control_into(
-            LD.null_entry, LD.null_kernel, lp, kind, p, g, q[i], qd[i], qr[i], qdr[i], qddr[i],
-            state, DT, tau[i], s[i], mats, work,
+            LD.null_entry, LD.null_kernel, INLINED, 0, lp, kind, p, g, q[i], qd[i], qr[i], qdr[i],
+            qddr[i], state, DT, tau[i], s[i], mats, work,
         )  # fmt: skip
 
 

@@ -83,3 +83,39 @@ def test_the_law_loads_the_callees_another_process_compiled(tmp_path: Path) -> N
     _python(_COMPILE_CALLEES, tmp_path)
     stats = json.loads(_python(_COMPILE_LAW, tmp_path).strip().splitlines()[-1])
     assert stats == {"pow_abs": [1, 0], "tanh": [1, 0], "sliding_mode_into": [0, 1]}
+
+
+_LINKED = """
+import json
+from numba.core import event
+import numpy as np
+from slidingarm import _engine as E, PAPER_Q0, FTSMC, PaperReference, PlanarArm, simulate
+compiled = []
+class Listener(event.Listener):
+    def on_start(self, ev):
+        if ev.kind == "numba:compile":
+            compiled.append(ev.data["dispatcher"].py_func.__name__)
+    def on_end(self, ev):
+        pass
+with event.install_listener("numba:compile", Listener()):
+    E.compile_loop()
+loop_alone = sorted(set(compiled))
+arm = PlanarArm.paper()
+law = FTSMC(arm, alpha=5.0, beta=5.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
+with E.linked_loop():
+    r = simulate(arm, law, PaperReference(), q0=PAPER_Q0, t_final=0.01, dt=1e-3)
+print(json.dumps({"loop_alone": loop_alone, "signatures": len(E.run_one.signatures),
+                  "finite": bool(np.isfinite(r.q).all())}))
+"""
+
+
+@pytest.mark.slow  # a fresh process compiles the linked loop, then runs it (about 6 s)
+def test_the_linked_loop_compiles_without_the_parts(tmp_path: Path) -> None:
+    # what lets reproduce compile its loop while its figure workers compile the parts
+    out = json.loads(_python(_LINKED, tmp_path).strip().splitlines()[-1])
+    parts = {"pow_abs", "tanh", "sliding_mode_into", "rk4_step"}
+    assert "run_one" in out["loop_alone"]
+    assert not parts & set(out["loop_alone"]), out["loop_alone"]
+    # compile_loop compiled what the first linked run takes: no second signature
+    assert out["signatures"] == 1
+    assert out["finite"]

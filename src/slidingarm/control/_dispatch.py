@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
-from slidingarm._pointers import FunctionPointer, function_at
+from slidingarm._pointers import INLINED, FunctionPointer, function_at
 from slidingarm.control import _kernels as CK
 from slidingarm.models import _dispatch as MD
 
@@ -114,6 +114,7 @@ def custom_entry(
 
 _ENTRY: FunctionPointer | None = None
 _PAPER: FunctionPointer | None = None
+_LAW: FunctionPointer | None = None
 
 
 def entry_pointer() -> FunctionPointer:
@@ -122,6 +123,16 @@ def entry_pointer() -> FunctionPointer:
     if _ENTRY is None:
         _ENTRY = FunctionPointer(custom_entry, ENTRY_SIGNATURE)
     return _ENTRY
+
+
+def law_pointer() -> FunctionPointer:
+    """The (shared) pointer to :func:`slidingarm.control._kernels.sliding_mode_into`, which the
+    linked per-run loop calls through its address (compiled, or loaded from numba's cache, on
+    first use)."""
+    global _LAW
+    if _LAW is None:
+        _LAW = FunctionPointer(CK.sliding_mode_into, CK.LAW_SIGNATURE)
+    return _LAW
 
 
 def paper_pointer() -> FunctionPointer:
@@ -138,6 +149,8 @@ def law_into(
     code: int,
     entry: Any,
     kernel: Any,
+    link: np.ndarray,
+    law_address: int,
     t: float,
     lp: np.ndarray,
     state: np.ndarray,
@@ -157,15 +170,16 @@ def law_into(
 ) -> None:
     """Torque ``tau_out`` and sliding variable ``s_out`` (n,) of the law ``(code, entry,
     kernel, lp, state)`` at the measured ``(q, qd)``, with the nominal model ``(mkind,
-    mparams, mg)``.
+    mparams, mg)``; ``link`` and ``law_address``: how the built-in laws reach
+    :func:`slidingarm.control._kernels.sliding_mode_into` (:func:`slidingarm.control._kernels.call_law`).
 
     ``mats`` is (2 n, n) scratch, ``work`` is ``(CK.CONTROL_WORK_ROWS, n)``; on return
     ``work`` holds the nominal model kind's kinematics of ``q``.
     """
     if code == LAW_SLIDING_MODE:
         CK.control_into(
-            entry, kernel, lp, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, state, dt,
-            tau_out, s_out, mats, work,
+            entry, kernel, link, law_address, lp, mkind, mparams, mg, q, qd, q_ref, qd_ref,
+            qdd_ref, state, dt, tau_out, s_out, mats, work,
         )  # fmt: skip
     else:
         entry(kernel, t, lp, state, mkind, mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, tau_out,
@@ -195,7 +209,7 @@ def control_once(
     here, see :func:`control_once_entry`."""
     n = q.shape[0]
     CK.control_into(
-        null_entry, null_kernel, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state,
+        null_entry, null_kernel, INLINED, 0, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state,
         dt, tau_out, s_out, scratch[CK.CONTROL_WORK_ROWS : CK.CONTROL_WORK_ROWS + 2 * n],
         scratch[: CK.CONTROL_WORK_ROWS],
     )  # fmt: skip
@@ -224,7 +238,7 @@ def control_once_entry(
     entry's and kernel's addresses."""
     n = q.shape[0]
     CK.control_into(
-        entry_at(entry_address), kernel_at(kernel_address), p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,
+        entry_at(entry_address), kernel_at(kernel_address), INLINED, 0, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,
         tau_out, s_out, scratch[CK.CONTROL_WORK_ROWS : CK.CONTROL_WORK_ROWS + 2 * n],
         scratch[: CK.CONTROL_WORK_ROWS],
     )  # fmt: skip

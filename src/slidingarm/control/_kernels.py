@@ -22,9 +22,12 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from slidingarm import _vecmath as VM
+from slidingarm._pointers import as_writable as _w
+from slidingarm._pointers import function_at, linked
 from slidingarm.models import _dispatch as MD
 from slidingarm.models import _kernels as PK
 
@@ -316,10 +319,67 @@ def sliding_mode_into(
         MD.inverse_dynamics(mkind, mparams, g, q, qd, acc, tau_out, work)
 
 
+_V = types.float64[::1]
+_M = types.float64[:, ::1]
+#: Signature of :func:`sliding_mode_into` as the linked per-run loop calls it: ``(p, mkind,
+#: mparams, mg, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau, s, work)``.
+LAW_SIGNATURE = types.void(
+    _V, types.int64, _M, types.float64, _V, _V, _V, _V, _V, _V, types.float64, _V, _V, _M
+)
+#: ``law_at(address)``: :func:`sliding_mode_into` at its address.
+law_at = function_at(types.FunctionType(LAW_SIGNATURE))
+
+
+def call_law(
+    link: np.ndarray,
+    address: int,
+    p: np.ndarray,
+    mkind: int,
+    mparams: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    q_ref: np.ndarray,
+    qd_ref: np.ndarray,
+    qdd_ref: np.ndarray,
+    st_state: np.ndarray,
+    dt: float,
+    tau_out: np.ndarray,
+    s_out: np.ndarray,
+    work: np.ndarray,
+) -> None:  # pragma: no cover - typed by its overload
+    """:func:`sliding_mode_into`, called directly or, with ``link``
+    :data:`~slidingarm._pointers.LINKED`, at ``address``."""
+    raise NotImplementedError
+
+
+@overload(call_law, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+def _call_law_typed(link, address, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work):  # type: ignore[no-untyped-def]
+    if linked(link):
+
+        def at(link, address, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work):  # type: ignore[no-untyped-def]
+            law_at(address)(
+                _w(p), mkind, _w(mparams), g, _w(q), _w(qd), _w(q_ref), _w(qd_ref),
+                _w(qdd_ref), _w(st_state), dt, _w(tau_out), _w(s_out), _w(work),
+            )  # fmt: skip
+
+        return at
+
+    def direct(link, address, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work):  # type: ignore[no-untyped-def]
+        sliding_mode_into(
+            p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out,
+            work,
+        )  # fmt: skip
+
+    return direct
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def control_into(
     entry: Any,
     kernel: Any,
+    link: np.ndarray,
+    law_address: int,
     p: np.ndarray,
     mkind: int,
     mparams: np.ndarray,
@@ -353,15 +413,18 @@ def control_into(
     :math:`\\tau_i = (-f_i - \\nu_i)/g_i - r_i` (no :math:`\\ddot q_d`, a row of
     :math:`M^{-1}` used as a scalar).
 
-    The surface, the reaching law and the model law are :func:`sliding_mode_into` (compiled
-    once, inlined by LLVM); only the call of the paper's ``entry`` is inlined in numba's IR
-    where this is called: ``entry`` may be a compiled function given statically
+    The surface, the reaching law and the model law are :func:`sliding_mode_into`: compiled
+    once and inlined by LLVM, or with ``link`` :data:`~slidingarm._pointers.LINKED` called at
+    ``law_address`` (:func:`slidingarm.control._dispatch.law_pointer`; :func:`call_law`).
+    Only the call of the paper's ``entry`` is inlined in numba's IR where this is called:
+    ``entry`` may be a compiled function given statically
     (:func:`slidingarm.control._dispatch.control_once`), which a compiled function cannot take
     as an argument without losing numba's cache.
     """
-    sliding_mode_into(
-        p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work
-    )
+    call_law(
+        link, law_address, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,
+        tau_out, s_out, work,
+    )  # fmt: skip
     if p[CI_LAW] != LAW_MODEL:
         # the paper's law, through its pointer (:func:`paper_entry`)
         entry(kernel, 0.0, p, st_state, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref,

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, types
+from numba.extending import overload
 
-from slidingarm._pointers import FunctionPointer, function_at
+from slidingarm._pointers import FunctionPointer, function_at, linked
 from slidingarm._pointers import as_writable as _w
 from slidingarm.models import _kernels as PK
 from slidingarm.models import _spatial as SK
@@ -86,6 +87,63 @@ def serial_addresses() -> list[float]:
 @njit(**_OPTS)
 def _fn(params: np.ndarray, k: int) -> int:
     return int(params[SK.P_FN + k, 0])
+
+
+#: The planar kind's RK4 step as a pointer (:func:`step_address`), made on first use.
+_PLANAR_STEP: list[FunctionPointer] = []
+
+
+def step_address(kind: int, params: np.ndarray) -> int:
+    """The address of the C wrapper of the RK4 step of a model of ``kind`` with ``params``
+    (signature ``SERIAL_SIGNATURES[FN_RK4]``, every kind's): what the linked per-run loop
+    calls (:func:`plant_step`). The planar kind's step is compiled (or loaded from numba's
+    cache) on first use; a serial arm's is in its table. So the loop compiles no kind's step
+    into itself, and its own compilation need not wait for them
+    (:func:`slidingarm._engine.run_one`)."""
+    if kind == KIND_SERIAL:
+        return int(params[SK.P_FN + FN_RK4, 0])
+    if kind != KIND_PLANAR:
+        raise ValueError(f"unknown model kind {kind}")
+    if not _PLANAR_STEP:
+        _PLANAR_STEP.append(FunctionPointer(PK.rk4_step, SERIAL_SIGNATURES[FN_RK4][1]))
+    return _PLANAR_STEP[0].address
+
+
+def plant_step(
+    link: np.ndarray,
+    kind: int,
+    address: int,
+    params: np.ndarray,
+    g: float,
+    q: np.ndarray,
+    qd: np.ndarray,
+    tau: np.ndarray,
+    h: float,
+    known: bool,
+    scratch: np.ndarray,
+    work: np.ndarray,
+) -> bool:  # pragma: no cover - typed by its overload
+    """:func:`rk4_step` as the per-run loop takes it: with ``link``
+    :data:`~slidingarm._pointers.LINKED`, the step at ``address`` (:func:`step_address`),
+    else :func:`rk4_step` of ``kind`` (``address`` unused)."""
+    raise NotImplementedError
+
+
+@overload(plant_step, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+def _plant_step_typed(link, kind, address, params, g, q, qd, tau, h, known, scratch, work):  # type: ignore[no-untyped-def]
+    if linked(link):
+
+        def at(link, kind, address, params, g, q, qd, tau, h, known, scratch, work):  # type: ignore[no-untyped-def]
+            return rk4_at(address)(
+                _w(params), g, _w(q), _w(qd), _w(tau), h, known, _w(scratch), _w(work)
+            )
+
+        return at
+
+    def direct(link, kind, address, params, g, q, qd, tau, h, known, scratch, work):  # type: ignore[no-untyped-def]
+        return rk4_step(kind, params, g, q, qd, tau, h, known, scratch, work)
+
+    return direct
 
 
 @njit(**_OPTS)

@@ -660,7 +660,7 @@ def reproduce(
     """
     # no automatic garbage collection during the study (slidingarm._gc: about a sixth of the
     # CPU of compiling the loop and of drawing, in this process and the workers it forks)
-    with _terminate_as_interrupt(), paused():
+    with _terminate_as_interrupt(), paused(), E.linked_loop():
         return _reproduce(
             out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite, svg=svg
         )
@@ -730,8 +730,12 @@ def _reproduce(
                 layouts = (first.nominal.n, tuple(first.controllers)) if cold else None
                 for _ in range(workers - 1):
                     pool.submit(_worker.warm_up, False, layouts)
+        if parts:
+            # the loop here while the workers compile its parts (it reaches them through
+            # their addresses); the runs then load the parts from the cache
+            E.compile_loop()
         for part in parts:
-            with suppress(Exception):  # a part a worker could not compile, the loop compiles
+            with suppress(Exception):  # a part a worker could not compile, the run compiles
                 part.result()
         figures = _figure_names()
 
