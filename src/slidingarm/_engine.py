@@ -428,8 +428,9 @@ _M = types.float64[:, ::1]
 #: ``tanh`` (calls), the law (inlined by LLVM, ``forceinline``), the planar RK4 step (with its
 #: ``sincos``, inlined by LLVM too). They are most of the loop's first compilation, and they
 #: compile into numba's cache in any process: :func:`compile_part` in other processes, and
-#: then a process compiling the loop loads them from the cache, so that its own first
-#: compilation is about 3 CPU-s. :func:`slidingarm.study.reproduce` has its two figure workers
+#: then a process compiling the inlined loop loads them from the cache, so that its own first
+#: compilation is about 3 CPU-s; the linked loop does not need them to compile (its runs load
+#: the law and the step by address). :func:`slidingarm.study.reproduce` has its two figure workers
 #: take them in this order as each comes free: both start at once on ``|x|^g`` and ``tanh``;
 #: the first done takes the law, whose compilation finds the other's callee in the cache (or
 #: compiles it itself if the other is late), and the second the RK4 step. Split so, the

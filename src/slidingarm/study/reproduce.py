@@ -716,8 +716,9 @@ def _reproduce(
                     initargs=(os.getpid(),),
                 )
                 # the loop's separately compiled parts first, one per worker as they come
-                # free, so that the loop's compilation here only loads them; then the errata's
-                # law (whose worker warms up after it) and the other workers' warm-ups
+                # free, while this process compiles the linked loop (which reaches them by
+                # address) and then loads them; then the errata's law (whose worker warms up
+                # after it) and the other workers' warm-ups
                 if cold:
                     parts = [
                         pool.submit(_worker.compile_loop_part, i) for i in range(len(E.LOOP_PARTS))
