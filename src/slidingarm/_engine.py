@@ -49,7 +49,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
 from slidingarm._gc import paused
 from slidingarm._pointers import INLINED, LINKED
@@ -491,6 +491,11 @@ def linked_loop() -> Iterator[None]:
         _LINKED_RUNS[0] = before
 
 
+def linked_runs() -> bool:
+    """Whether this process's per-run runs take the linked loop now (:func:`linked_loop`)."""
+    return _LINKED_RUNS[0]
+
+
 def loop_link(pkind: int, pparams: np.ndarray) -> tuple[np.ndarray, int, int]:
     """``(link, step_address, law_address)`` of the next per-run run (:func:`linked_loop`):
     for the inlined loop, :data:`~slidingarm._pointers.INLINED` and two unused zeros."""
@@ -518,12 +523,20 @@ def prime() -> None:
         PK.sincos.compile((types.float64,))
 
 
-def loop_cached() -> bool:
-    """Whether numba's cache holds :func:`run_one` compiled from this source (for some
-    signature): then a process loads the loop from it and compiles no part of it, and
-    need not wait for :func:`compile_part` elsewhere. Reads numba's cache index (not a public
-    API: if it cannot be read, ``False``)."""
+def loop_cached(link: np.ndarray | None = None) -> bool:
+    """Whether numba's cache holds :func:`run_one` compiled from this source: for the
+    specialisation of ``link`` (:data:`~slidingarm._pointers.INLINED` or ``LINKED``), or for
+    any with ``None``. Then a process loads that loop from the cache and compiles no part of
+    it, and need not wait for :func:`compile_part` elsewhere. Reads numba's cache index (not a
+    public API: if it cannot be read, ``False``)."""
     try:
-        return bool(run_one._cache._cache_file._load_index())
+        index = run_one._cache._cache_file._load_index()
     except Exception:  # numba's internals moved: assume a cold cache
+        return False
+    if link is None:
+        return bool(index)
+    want = typeof(link)
+    try:
+        return any(key[0][-1] == want for key in index)
+    except Exception:  # an index keyed otherwise
         return False

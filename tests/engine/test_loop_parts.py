@@ -97,14 +97,18 @@ class Listener(event.Listener):
             compiled.append(ev.data["dispatcher"].py_func.__name__)
     def on_end(self, ev):
         pass
+from slidingarm._pointers import INLINED, LINKED
+before = [E.loop_cached(), E.loop_cached(LINKED)]
 with event.install_listener("numba:compile", Listener()):
     E.compile_loop()
 loop_alone = sorted(set(compiled))
+cached = [E.loop_cached(LINKED), E.loop_cached(INLINED), E.loop_cached()]
 arm = PlanarArm.paper()
 law = FTSMC(arm, alpha=5.0, beta=5.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
 with E.linked_loop():
     r = simulate(arm, law, PaperReference(), q0=PAPER_Q0, t_final=0.01, dt=1e-3)
 print(json.dumps({"loop_alone": loop_alone, "signatures": len(E.run_one.signatures),
+                  "before": before, "cached": cached,
                   "finite": bool(np.isfinite(r.q).all())}))
 """
 
@@ -119,3 +123,6 @@ def test_the_linked_loop_compiles_without_the_parts(tmp_path: Path) -> None:
     # compile_loop compiled what the first linked run takes: no second signature
     assert out["signatures"] == 1
     assert out["finite"]
+    # the cache tells the two specialisations apart (reproduce takes the inlined loop if cached)
+    assert out["before"] == [False, False]
+    assert out["cached"] == [True, False, True]

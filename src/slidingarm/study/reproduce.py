@@ -30,7 +30,7 @@ import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager, nullcontext, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -39,6 +39,7 @@ import numpy as np
 
 from slidingarm import _engine as E
 from slidingarm._gc import paused
+from slidingarm._pointers import INLINED, LINKED
 from slidingarm._version import __version__
 from slidingarm.config import Scenario, Setup
 from slidingarm.models.serial import SerialArm
@@ -660,7 +661,10 @@ def reproduce(
     """
     # no automatic garbage collection during the study (slidingarm._gc: about a sixth of the
     # CPU of compiling the loop and of drawing, in this process and the workers it forks)
-    with _terminate_as_interrupt(), paused(), E.linked_loop():
+    # the linked loop (slidingarm._engine.linked_loop) unless the inlined one is cached: it
+    # compiles here while the workers compile the parts it reaches by address
+    linked = E.linked_loop() if not E.loop_cached(INLINED) else nullcontext()
+    with _terminate_as_interrupt(), paused(), linked:
         return _reproduce(
             out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite, svg=svg
         )
@@ -699,7 +703,7 @@ def _reproduce(
         workers = min(jobs, len(scenarios)) if jobs > 1 else 0
         parts: list[cf.Future[None]] = []
         setups = {name: s.build() for name, s in scenarios.items()}
-        cold = not E.loop_cached()
+        cold = not E.loop_cached(LINKED if E.linked_runs() else INLINED)
         start = _worker_context()
         if workers and cold and start.get_start_method() == "fork":
             E.prime()  # once here, inherited by both workers
@@ -731,7 +735,7 @@ def _reproduce(
                 layouts = (first.nominal.n, tuple(first.controllers)) if cold else None
                 for _ in range(workers - 1):
                     pool.submit(_worker.warm_up, False, layouts)
-        if parts:
+        if parts and E.linked_runs():
             # the loop here while the workers compile its parts (it reaches them through
             # their addresses); the runs then load the parts from the cache
             E.compile_loop()
