@@ -20,7 +20,7 @@ from numba.extending import intrinsic
 
 from slidingarm._gc import paused
 
-__all__ = ["INLINED", "LINKED", "FunctionPointer", "function_at", "linked"]
+__all__ = ["INLINED", "LINKED", "FunctionPointer", "function_at", "inline_unless_linked", "linked"]
 
 #: How the per-run loop reaches the built-in law and the planar plant's RK4 step, as the *type*
 #: of an empty array it is given (one source, two compiled specialisations, each cached):
@@ -35,6 +35,14 @@ LINKED = np.empty(0, dtype=np.int8)
 def linked(tag: Any) -> bool:
     """Whether the numba type ``tag`` is :data:`LINKED`'s."""
     return isinstance(tag, types.Array) and tag.dtype == types.int8
+
+
+def inline_unless_linked(expr: Any, caller_info: Any, callee_info: Any) -> bool:
+    """numba's ``inline=`` cost model of an overload whose first argument is the tag: inlined
+    in numba's IR where the tag is :data:`INLINED` (the direct call then compiles as it did
+    before the tag, and runs as fast), compiled as a small function of its own where it is
+    :data:`LINKED` (less of the linked loop's compilation)."""
+    return not linked(caller_info.typemap[expr.args[0].name])
 
 
 class FunctionPointer(WrapperAddressProtocol):

@@ -27,7 +27,7 @@ from numba.extending import overload
 
 from slidingarm import _vecmath as VM
 from slidingarm._pointers import as_writable as _w
-from slidingarm._pointers import function_at, linked
+from slidingarm._pointers import function_at, inline_unless_linked, linked
 from slidingarm.models import _dispatch as MD
 from slidingarm.models import _kernels as PK
 
@@ -353,7 +353,11 @@ def call_law(
     raise NotImplementedError
 
 
-@overload(call_law, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+@overload(
+    call_law,
+    jit_options={"nogil": True, "error_model": "numpy", "forceinline": True},
+    inline=inline_unless_linked,
+)
 def _call_law_typed(link, address, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt, tau_out, s_out, work):  # type: ignore[no-untyped-def]
     if linked(link):
 

@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from slidingarm._pointers import FunctionPointer, function_at, linked
+from slidingarm._pointers import FunctionPointer, function_at, inline_unless_linked, linked
 from slidingarm._pointers import as_writable as _w
 from slidingarm.models import _kernels as PK
 from slidingarm.models import _spatial as SK
@@ -129,7 +129,11 @@ def plant_step(
     raise NotImplementedError
 
 
-@overload(plant_step, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
+@overload(
+    plant_step,
+    jit_options={"nogil": True, "error_model": "numpy", "forceinline": True},
+    inline=inline_unless_linked,
+)
 def _plant_step_typed(link, kind, address, params, g, q, qd, tau, h, known, scratch, work):  # type: ignore[no-untyped-def]
     if linked(link):
 
