@@ -424,26 +424,28 @@ _V = types.float64[::1]
 _M = types.float64[:, ::1]
 
 #: The functions :func:`run_one` calls that numba compiles as functions of their own, with the
-#: signature they are called with, in the order to compile them: the law's ``|x|^g`` and
-#: ``tanh`` (calls), the law (inlined by LLVM, ``forceinline``), the planar RK4 step (with its
-#: ``sincos``, inlined by LLVM too). They are most of the loop's first compilation, and they
-#: compile into numba's cache in any process: :func:`compile_part` in other processes, and
-#: then a process compiling the inlined loop loads them from the cache, so that its own first
-#: compilation is about 3 CPU-s; the linked loop does not need them to compile (its runs load
-#: the law and the step by address). :func:`slidingarm.study.reproduce` has its two figure workers
-#: take them in this order as each comes free: both start at once on ``|x|^g`` and ``tanh``;
-#: the first done takes the law, whose compilation finds the other's callee in the cache (or
-#: compiles it itself if the other is late), and the second the RK4 step. Split so, the
-#: longest of the two is about 1.9 CPU-s instead of the law's 2.8 with its two callees
-#: (measured cold, one at a time). Tests check that the law's compilation finds the two callees cached, and the
-#: loop's the law and the step.
+#: signature they are called with, in the order to compile them: the model's ``sincos`` (a
+#: call, from the law's model, the RK4 step and the paper's law), the law's ``|x|^g`` and
+#: ``tanh`` (calls), the planar RK4 step and the law (both inlined by LLVM, ``forceinline``).
+#: They are most of the loop's first compilation, and they compile into numba's cache in any
+#: process: :func:`compile_part` in other processes, and then a process compiling the inlined
+#: loop loads them from the cache, so that its own first compilation is about 3 CPU-s; the
+#: linked loop does not need them to compile (its runs load the law and the step by address).
+#: :func:`slidingarm.study.reproduce` has its two figure workers take them in this order as
+#: each comes free: one starts on ``sincos``, the other on ``|x|^g``; the first free takes
+#: ``tanh``, the other the RK4 step (``sincos`` is cached by then), and the one with ``tanh``
+#: the law, whose compilation then finds its three callees in the cache (or compiles one itself
+#: if another worker is late). Split so, each worker compiles about 2 CPU-s instead of the
+#: law's 2.8 with its callees (measured cold, one at a time). Tests check that the law's
+#: compilation finds the callees cached, and the inlined loop's the law and the step.
 LOOP_PARTS: tuple[tuple[Any, Any], ...] = (
+    (PK.sincos, types.UniTuple(types.float64, 2)(types.float64)),
     (CK.pow_abs, types.float64(types.float64, types.float64)),
     (CK.tanh, types.float64(types.float64)),
-    (CK.sliding_mode_into, types.void(_V, types.int64, _M, types.float64, _V, _V, _V, _V, _V, _V,
-                                     types.float64, _V, _V, _M)),
     (PK.rk4_step, types.boolean(_M, types.float64, _V, _V, _V, types.float64, types.boolean, _M,
                                _M)),
+    (CK.sliding_mode_into, types.void(_V, types.int64, _M, types.float64, _V, _V, _V, _V, _V, _V,
+                                     types.float64, _V, _V, _M)),
 )  # fmt: skip
 
 
@@ -513,14 +515,21 @@ def compile_loop() -> None:
         run_one.compile(LOOP_ARGS)
 
 
+@njit(nogil=True)
+def _first(x: float) -> float:  # pragma: no cover - compiled
+    """A function to compile (not cached): :func:`prime`'s."""
+    return x + 1.0
+
+
 def prime() -> None:
-    """Do in this process what each process compiling :data:`LOOP_PARTS` or the paper's law
-    would do first: numba's own set-up of its first compilation in a process (about 0.4 CPU-s),
-    and the model's :func:`~slidingarm.models._kernels.sincos`, which the law, the RK4 step and
-    the paper's law call (about 0.3 CPU-s, cold). Worker processes forked after this inherit both instead of each repeating them
-    (:func:`slidingarm.study.reproduce`); nothing to compile if the cache holds it."""
+    """Do in this process what each process compiling :data:`LOOP_PARTS`, the paper's law or
+    the loop would do first: numba's own set-up of its first compilation in a process (about
+    0.5 CPU-s, the compilation of a one-line function). Worker processes forked after this
+    inherit it instead of each repeating it (:func:`slidingarm.study.reproduce`). The model's
+    ``sincos``, which the law, the RK4 step and the paper's law call, is the first of the parts:
+    compiled here too it cost the study's start, on one core, 0.35 CPU-s more."""
     with paused():
-        PK.sincos.compile((types.float64,))
+        _first.compile((types.float64,))
 
 
 def loop_cached(link: np.ndarray | None = None) -> bool:

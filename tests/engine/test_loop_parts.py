@@ -54,26 +54,30 @@ def test_the_loop_loads_the_parts_another_process_compiled(tmp_path: Path) -> No
     assert out["stats"].pop("run_one") == [0, 1]
     # the law's callees came with the law: neither asked for by the loop's compilation
     assert out["stats"] == {
-        "pow_abs": [0, 0], "tanh": [0, 0], "sliding_mode_into": [1, 0], "rk4_step": [1, 0]
+        "sincos": [0, 0], "pow_abs": [0, 0], "tanh": [0, 0], "sliding_mode_into": [1, 0],
+        "rk4_step": [1, 0],
     }
 
 
 _COMPILE_CALLEES = """
 from slidingarm import _engine as E
 from slidingarm.control import _kernels as CK
-E.compile_part(0)
-E.compile_part(1)
-assert (E.LOOP_PARTS[0][0], E.LOOP_PARTS[1][0]) == (CK.pow_abs, CK.tanh)
+from slidingarm.models import _kernels as PK
+for i in (0, 1, 2):
+    E.compile_part(i)
+assert [d for d, _ in E.LOOP_PARTS[:3]] == [PK.sincos, CK.pow_abs, CK.tanh]
 """
 
 _COMPILE_LAW = """
 import json
 from slidingarm import _engine as E
 from slidingarm.control import _kernels as CK
-E.compile_part(2)
+from slidingarm.models import _kernels as PK
+assert E.LOOP_PARTS[4][0] is CK.sliding_mode_into
+E.compile_part(4)
 print(json.dumps({d.py_func.__name__: [sum(d.stats.cache_hits.values()),
                                        sum(d.stats.cache_misses.values())]
-                  for d in (CK.pow_abs, CK.tanh, CK.sliding_mode_into)}))
+                  for d in (PK.sincos, CK.pow_abs, CK.tanh, CK.sliding_mode_into)}))
 """
 
 
@@ -82,7 +86,9 @@ def test_the_law_loads_the_callees_another_process_compiled(tmp_path: Path) -> N
     # what lets reproduce's two figure workers compile the law's pieces side by side
     _python(_COMPILE_CALLEES, tmp_path)
     stats = json.loads(_python(_COMPILE_LAW, tmp_path).strip().splitlines()[-1])
-    assert stats == {"pow_abs": [1, 0], "tanh": [1, 0], "sliding_mode_into": [0, 1]}
+    assert stats == {
+        "sincos": [1, 0], "pow_abs": [1, 0], "tanh": [1, 0], "sliding_mode_into": [0, 1]
+    }
 
 
 _LINKED = """
@@ -117,7 +123,7 @@ print(json.dumps({"loop_alone": loop_alone, "signatures": len(E.run_one.signatur
 def test_the_linked_loop_compiles_without_the_parts(tmp_path: Path) -> None:
     # what lets reproduce compile its loop while its figure workers compile the parts
     out = json.loads(_python(_LINKED, tmp_path).strip().splitlines()[-1])
-    parts = {"pow_abs", "tanh", "sliding_mode_into", "rk4_step"}
+    parts = {"sincos", "pow_abs", "tanh", "sliding_mode_into", "rk4_step"}
     assert "run_one" in out["loop_alone"]
     assert not parts & set(out["loop_alone"]), out["loop_alone"]
     # compile_loop compiled what the first linked run takes: no second signature

@@ -94,9 +94,9 @@ def warm_up(paper_law: bool = False, layouts: tuple[int, Sequence[str]] | None =
     simulates: import the plotting stack (matplotlib, its Agg backend and the plotting code);
     with ``paper_law``, first :func:`compile_paper_law` (one task, so that the worker that
     compiles it is made ready too: a second warm-up task would go to whichever worker is
-    free, the other one). A spawned worker compiles the law first because it shares small
-    kernels with the main process's loop (the model's ``sincos``), which the main process
-    then loads; a forked one inherits them (:func:`slidingarm._engine.prime`).
+    free, the other one). The law's small callees (the model's ``sincos``) are cached by the
+    loop's parts (:data:`slidingarm._engine.LOOP_PARTS`) when the study is cold; a forked worker
+    inherits numba's set-up from the main process (:func:`slidingarm._engine.prime`).
 
     With ``layouts = (joints, labels)`` it then makes the figures of every layout a scenario of
     that many joints and those run labels draws, and hands them back
