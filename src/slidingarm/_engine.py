@@ -44,6 +44,7 @@ slower (the paper's run: 5.6 against 4.7 ms), which ``simulate`` keeps by defaul
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -442,10 +443,10 @@ LOOP_PARTS: tuple[tuple[Any, Any], ...] = (
     (PK.sincos, types.UniTuple(types.float64, 2)(types.float64)),
     (CK.pow_abs, types.float64(types.float64, types.float64)),
     (CK.tanh, types.float64(types.float64)),
-    (PK.rk4_step, types.boolean(_M, types.float64, _V, _V, _V, types.float64, types.boolean, _M,
-                               _M)),
-    (CK.sliding_mode_into, types.void(_V, types.int64, _M, types.float64, _V, _V, _V, _V, _V, _V,
-                                     types.float64, _V, _V, _M)),
+    # the signatures the linked loop's pointers take (slidingarm.control._dispatch.law_pointer,
+    # slidingarm.models._dispatch.step_address): the same cache entries
+    (PK.rk4_step, MD.SERIAL_SIGNATURES[MD.FN_RK4][1]),
+    (CK.sliding_mode_into, CK.LAW_SIGNATURE),
 )  # fmt: skip
 
 
@@ -472,8 +473,9 @@ LOOP_ARGS = (
 )  # fmt: skip
 
 
-#: Whether this process's per-run runs take the linked loop (:func:`linked_loop`).
-_LINKED_RUNS = [False]
+#: How many :func:`linked_loop` blocks are open in this process (any thread), under its lock.
+_LINKED_DEPTH = [0]
+_LINKED_LOCK = threading.Lock()
 
 
 @contextmanager
@@ -484,26 +486,32 @@ def linked_loop() -> Iterator[None]:
     the planar step through their addresses: the same results bit for bit, about 100 ns more
     per sample, compiled without them (:func:`compile_loop`). :func:`slidingarm.study.reproduce`
     uses it so that its loop compiles while its workers compile the parts. The switch is the
-    process's (runs of other threads meanwhile take it too)."""
-    before = _LINKED_RUNS[0]
-    _LINKED_RUNS[0] = True
+    process's: runs of other threads meanwhile take it too, until every open block has ended
+    (a count, so that blocks of several threads may overlap)."""
+    with _LINKED_LOCK:
+        _LINKED_DEPTH[0] += 1
     try:
         yield
     finally:
-        _LINKED_RUNS[0] = before
+        with _LINKED_LOCK:
+            _LINKED_DEPTH[0] -= 1
 
 
 def linked_runs() -> bool:
     """Whether this process's per-run runs take the linked loop now (:func:`linked_loop`)."""
-    return _LINKED_RUNS[0]
+    return _LINKED_DEPTH[0] > 0
 
 
-def loop_link(pkind: int, pparams: np.ndarray) -> tuple[np.ndarray, int, int]:
-    """``(link, step_address, law_address)`` of the next per-run run (:func:`linked_loop`):
-    for the inlined loop, :data:`~slidingarm._pointers.INLINED` and two unused zeros."""
-    if not _LINKED_RUNS[0]:
+def loop_link(pkind: int, pparams: np.ndarray, law_code: int) -> tuple[np.ndarray, int, int]:
+    """``(link, step_address, law_address)`` of the next per-run run of a plant of kind
+    ``pkind`` under a law of code ``law_code`` (:func:`linked_loop`): for the inlined loop,
+    :data:`~slidingarm._pointers.INLINED` and two unused zeros; the law's address is that of
+    the built-in laws' :func:`~slidingarm.control._kernels.sliding_mode_into`, 0 for a custom
+    law, which never calls it (and so never compiles it)."""
+    if not linked_runs():
         return INLINED, 0, 0
-    return LINKED, MD.step_address(pkind, pparams), LD.law_pointer().address
+    law = LD.law_pointer().address if law_code == LD.LAW_SLIDING_MODE else 0
+    return LINKED, MD.step_address(pkind, pparams), law
 
 
 def compile_loop() -> None:
@@ -532,20 +540,31 @@ def prime() -> None:
         _first.compile((types.float64,))
 
 
-def loop_cached(link: np.ndarray | None = None) -> bool:
-    """Whether numba's cache holds :func:`run_one` compiled from this source: for the
-    specialisation of ``link`` (:data:`~slidingarm._pointers.INLINED` or ``LINKED``), or for
-    any with ``None``. Then a process loads that loop from the cache and compiles no part of
-    it, and need not wait for :func:`compile_part` elsewhere. Reads numba's cache index (not a
+def _cached(dispatcher: Any, last: Any = None) -> bool:
+    """Whether numba's cache holds ``dispatcher`` compiled from its current source for this
+    CPU (the index's key: signature, the codegen's CPU name and features, ...), for a signature
+    whose last argument type is ``last`` (any with ``None``). Reads numba's cache index (not a
     public API: if it cannot be read, ``False``)."""
     try:
-        index = run_one._cache._cache_file._load_index()
+        index = dispatcher._cache._cache_file._load_index()
+        cpu = dispatcher.targetctx.codegen().magic_tuple()
+        return any(
+            key[1] == cpu and (last is None or key[0][-1] == last) for key in index
+        )
     except Exception:  # numba's internals moved: assume a cold cache
         return False
-    if link is None:
-        return bool(index)
-    want = typeof(link)
-    try:
-        return any(key[0][-1] == want for key in index)
-    except Exception:  # an index keyed otherwise
-        return False
+
+
+def loop_cached(link: np.ndarray | None = None) -> bool:
+    """Whether numba's cache holds :func:`run_one` compiled from this source for this CPU: the
+    specialisation of ``link`` (:data:`~slidingarm._pointers.INLINED` or ``LINKED``), or any
+    with ``None``. The inlined loop then loads from the cache with what it inlined, and a
+    process need not wait for :func:`compile_part` elsewhere; the linked loop's runs still
+    load the law and the step by address (:func:`parts_cached`)."""
+    return _cached(run_one, None if link is None else typeof(link))
+
+
+def parts_cached() -> bool:
+    """Whether numba's cache holds every one of :data:`LOOP_PARTS` compiled from its source
+    for this CPU."""
+    return all(_cached(dispatcher) for dispatcher, _ in LOOP_PARTS)

@@ -347,11 +347,12 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
             )  # fmt: skip
             continue
         ph = plant.handle
-        link, step, law_at = E.loop_link(ph.kind, ph.params)
-        # the first run in this process compiles the loop (or loads it from numba's cache):
-        # without automatic garbage collection meanwhile (slidingarm._gc); the loop has no
-        # compiled signature yet (what stands in for it in a test may have none to show)
-        first = not getattr(E.run_one, "signatures", True)
+        link, step, law_at = E.loop_link(ph.kind, ph.params, law.code)
+        # the first run of a specialisation in this process compiles the loop (or loads it
+        # from numba's cache): without automatic garbage collection meanwhile
+        # (slidingarm._gc); the loop has fewer compiled signatures than specialisations then
+        # (what stands in for it in a test may have none to show)
+        first = len(getattr(E.run_one, "signatures", (0, 0))) < 2
         with paused() if first else nullcontext():
             E.run_one(
                 ph.kind, np.array(ph.params), ph.g, step, law.code, law.entry.address, law.kernel.address, law_at, lp, lstate, model.kind,

@@ -420,10 +420,10 @@ def control_into(
     The surface, the reaching law and the model law are :func:`sliding_mode_into`: compiled
     once and inlined by LLVM, or with ``link`` :data:`~slidingarm._pointers.LINKED` called at
     ``law_address`` (:func:`slidingarm.control._dispatch.law_pointer`; :func:`call_law`).
-    Only the call of the paper's ``entry`` is inlined in numba's IR where this is called:
-    ``entry`` may be a compiled function given statically
-    (:func:`slidingarm.control._dispatch.control_once`), which a compiled function cannot take
-    as an argument without losing numba's cache.
+    This function is inlined in numba's IR where it is called (and so are :func:`call_law`'s
+    direct call and the call of the paper's ``entry``): ``entry`` may be a compiled function
+    given statically (:func:`slidingarm.control._dispatch.control_once`), which a compiled
+    function cannot take as an argument without losing numba's cache.
     """
     call_law(
         link, law_address, p, mkind, mparams, g, q, qd, q_ref, qd_ref, qdd_ref, st_state, dt,

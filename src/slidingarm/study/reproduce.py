@@ -507,6 +507,12 @@ def _default_jobs() -> int:
     return max(1, min(3, os.cpu_count() or 1))
 
 
+def _workers(jobs: int, scenarios: int) -> int:
+    """Figure workers of a study of ``scenarios`` scenarios with ``jobs`` processes (none
+    for one: this process draws)."""
+    return min(jobs, scenarios) if jobs > 1 else 0
+
+
 # --------------------------------------------------------------------------------------------
 # one scenario
 
@@ -661,9 +667,11 @@ def reproduce(
     """
     # no automatic garbage collection during the study (slidingarm._gc: about a sixth of the
     # CPU of compiling the loop and of drawing, in this process and the workers it forks)
-    # the linked loop (slidingarm._engine.linked_loop) unless the inlined one is cached: it
-    # compiles here while the workers compile the parts it reaches by address
-    linked = E.linked_loop() if not E.loop_cached(INLINED) else nullcontext()
+    # the linked loop (slidingarm._engine.linked_loop) when there are figure workers to compile
+    # the parts it reaches by address while it compiles here, unless the inlined one is cached
+    jobs = _default_jobs() if jobs is None else max(1, int(jobs))
+    parallel = _workers(jobs, len(SCENARIOS)) > 0
+    linked = E.linked_loop() if parallel and not E.loop_cached(INLINED) else nullcontext()
     with _terminate_as_interrupt(), paused(), linked:
         return _reproduce(
             out_dir, progress=progress, command=command, jobs=jobs, overwrite=overwrite, svg=svg
@@ -700,10 +708,14 @@ def _reproduce(
         # matplotlib, compile the errata's law and (cold) make the study's figure layouts
         from slidingarm.plotting import _worker
 
-        workers = min(jobs, len(scenarios)) if jobs > 1 else 0
+        workers = _workers(jobs, len(scenarios))
         parts: list[cf.Future[None]] = []
         setups = {name: s.build() for name, s in scenarios.items()}
-        cold = not E.loop_cached(LINKED if E.linked_runs() else INLINED)
+        # cold: the loop this study runs is not cached, or (linked) the parts its runs load
+        if E.linked_runs():
+            cold = not (E.loop_cached(LINKED) and E.parts_cached())
+        else:
+            cold = not E.loop_cached(INLINED)
         start = _worker_context()
         if workers and cold and start.get_start_method() == "fork":
             E.prime()  # once here, inherited by both workers
