@@ -35,7 +35,7 @@ Two specialisations of :func:`run_one`, by the type of its last argument
 loop, which calls the built-in law and the plant's RK4 step through their addresses
 (:func:`slidingarm.control._dispatch.law_pointer`,
 :func:`slidingarm.models._dispatch.step_address`). The linked loop needs neither compiled to
-compile (about 2.3 CPU-s cold, against 2.7 for the inlined one after its parts), so
+compile (about 2.4 CPU-s cold, against 2.7 for the inlined one after its parts), so
 ``slidingarm reproduce`` compiles it while its workers compile the parts (:func:`linked_loop`,
 :func:`compile_loop`); its runs are bit for bit the inlined loop's, about 100 ns a sample
 slower (the paper's run: 5.6 against 4.7 ms), which ``simulate`` keeps by default.
@@ -462,14 +462,12 @@ def compile_part(index: int) -> None:
 
 _I = types.int64
 _F = types.float64
-_A1 = types.float64[::1]
-_A2 = types.float64[:, ::1]
 #: The argument types of the linked :func:`run_one` as ``simulate`` calls it (every array
 #: C-contiguous and writable): :func:`compile_loop` compiles exactly what the first run would.
 LOOP_ARGS = (
-    _I, _A2, _F, _I, _I, _I, _I, _I, _A1, _A1, _I, _A2, _F, _A1, _A1, _A1, _A2, _A2, _A2, _A2,
-    types.boolean[:, ::1], _I, _A2, _A2, _A1, _F, _I, _F, _A2, _A2, _A2, _A2, _A2, _A2,
-    types.int64[::1], _A2, types.int8[::1],
+    _I, _M, _F, _I, _I, _I, _I, _I, _V, _V, _I, _M, _F, _V, _V, _V, _M, _M, _M, _M,
+    types.boolean[:, ::1], _I, _M, _M, _V, _F, _I, _F, _M, _M, _M, _M, _M, _M,
+    types.int64[::1], _M, types.int8[::1],
 )  # fmt: skip
 
 

@@ -347,7 +347,7 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
             )  # fmt: skip
             continue
         ph = plant.handle
-        link, step, law_at = E.loop_link(ph.kind, ph.params, law.code)
+        link, step, law_address = E.loop_link(ph.kind, ph.params, law.code)
         # the first run of a specialisation in this process compiles the loop (or loads it
         # from numba's cache): without automatic garbage collection meanwhile
         # (slidingarm._gc); the loop has fewer compiled signatures than specialisations then
@@ -355,7 +355,7 @@ def _run_chunk(plan: _Plan, runs: range, out: list[FloatArray], status: NDArray[
         first = len(getattr(E.run_one, "signatures", (0, 0))) < 2
         with paused() if first else nullcontext():
             E.run_one(
-                ph.kind, np.array(ph.params), ph.g, step, law.code, law.entry.address, law.kernel.address, law_at, lp, lstate, model.kind,
+                ph.kind, np.array(ph.params), ph.g, step, law.code, law.entry.address, law.kernel.address, law_address, lp, lstate, model.kind,
                 mp, model.g, q0, qd0, t, qr, qdr, qddr, madd, mhold, int(vcode), vf, dist,
                 tmax, plan.dt, plan.substeps, plan.qd_limit, *outs, status[i], workspace, link,
             )  # fmt: skip
