@@ -50,7 +50,7 @@ PHASES = (
     ("clip", "        _clip(ws, n)"),
     ("record", "        if stride > 0 and k % stride == 0:"),
     ("metrics", "        if metrics:"),
-    ("status", "        nalive = 0"),
+    ("status", "        nalive = W"),
     ("rk4", "        for sub in range(substeps):"),
     ("check", "        _check(ws, n, qd_limit)"),
 )

@@ -1621,6 +1621,17 @@ def _fold_sums(ws: np.ndarray, n: int) -> None:
                 ws[part + ln] = 0.0
 
 
+@njit(inline="always", **_OPT)
+def _any_failing(ws: np.ndarray, row: int, none: float) -> bool:
+    """Whether any lane has failed before or fails now (lane row ``row`` is not ``none``):
+    one vectorised test a step, so that the per-lane bookkeeping (a branch per lane) runs only
+    in a step that has something to book."""
+    failing = False
+    for ln in range(W):
+        failing |= (ws[_L_ALIVE + ln] == 0.0) | (ws[row + ln] != none)
+    return failing
+
+
 @njit(**_OPT)
 def _reset_lane(ws: np.ndarray, n: int, ln: int) -> None:
     """A failed lane restarts from its initial state: finite values, which cost what a live
@@ -1776,18 +1787,20 @@ def run_block(
                         b = local[ln]
                         for j in range(n):
                             tau_trace[b, j, k] = ws[J0 + j * JS + _TAU + ln]
-        nalive = 0
-        for ln in range(W):
-            if ws[_L_ALIVE + ln] != 0.0 and ws[_L_BAD + ln] >= 0.0:
-                b = lanes[ln]
-                status[b, 0] = E.STATUS_NONFINITE
-                status[b, 1] = k
-                status[b, 2] = int(ws[_L_BAD + ln])
-                ws[_L_ALIVE + ln] = 0.0
-            if ws[_L_ALIVE + ln] == 0.0:
-                _reset_lane(ws, n, ln)
-            else:
-                nalive += 1
+        nalive = W
+        if _any_failing(ws, _L_BAD, -1.0):
+            nalive = 0
+            for ln in range(W):
+                if ws[_L_ALIVE + ln] != 0.0 and ws[_L_BAD + ln] >= 0.0:
+                    b = lanes[ln]
+                    status[b, 0] = E.STATUS_NONFINITE
+                    status[b, 1] = k
+                    status[b, 2] = int(ws[_L_BAD + ln])
+                    ws[_L_ALIVE + ln] = 0.0
+                if ws[_L_ALIVE + ln] == 0.0:
+                    _reset_lane(ws, n, ln)
+                else:
+                    nalive += 1
         if nalive == 0 or k == nt - 1:
             break
         # --- plant over [t_k, t_k+1)
@@ -1796,18 +1809,20 @@ def run_block(
         for sub in range(substeps):
             _plant_step(ws, joints, h, exact and sub == 0, law_tag)
         _check(ws, n, qd_limit)
-        nalive = 0
-        for ln in range(W):
-            if ws[_L_ALIVE + ln] != 0.0 and ws[_L_CODE + ln] != E.STATUS_OK:
-                b = lanes[ln]
-                status[b, 0] = int(ws[_L_CODE + ln])
-                status[b, 1] = k + 1
-                status[b, 2] = int(ws[_L_JOINT + ln])
-                ws[_L_ALIVE + ln] = 0.0
-            if ws[_L_ALIVE + ln] == 0.0:
-                _reset_lane(ws, n, ln)
-            else:
-                nalive += 1
+        nalive = W
+        if _any_failing(ws, _L_CODE, float(E.STATUS_OK)):
+            nalive = 0
+            for ln in range(W):
+                if ws[_L_ALIVE + ln] != 0.0 and ws[_L_CODE + ln] != E.STATUS_OK:
+                    b = lanes[ln]
+                    status[b, 0] = int(ws[_L_CODE + ln])
+                    status[b, 1] = k + 1
+                    status[b, 2] = int(ws[_L_JOINT + ln])
+                    ws[_L_ALIVE + ln] = 0.0
+                if ws[_L_ALIVE + ln] == 0.0:
+                    _reset_lane(ws, n, ln)
+                else:
+                    nalive += 1
         if nalive == 0:
             break
     if metrics:
