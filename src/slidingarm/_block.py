@@ -48,7 +48,8 @@ and the thread count.
 
 **Status.** A lane whose torque, sliding variable or state stops being finite, or whose speed
 exceeds ``qd_limit``, records ``[code, sample, joint]`` as ``run_one`` would, stops writing
-outputs and restarts from its initial state (finite values cost what live ones cost); when
+outputs (but the torque trace of the spectral metric, whose failed runs :func:`finish_metrics`
+clears) and restarts from its initial state (finite values cost what live ones cost); when
 every lane has failed the block returns. ``run_one``'s ABA returns early at a pivot that is not
 positive; the block computes on and only records the failure, which for a planar arm with
 positive masses happens only with a non-finite state, reported as such first. A serial arm's
@@ -1700,7 +1701,10 @@ def run_block(
     ``stride``-th; none if ``stride == 0``) to ``q_b[lanes[ln], k // stride]`` etc. (arrays
     ``(B, K, n)``), its status to ``status[lanes[ln]]`` and, if ``metrics``, its metric
     accumulators to ``acc[local[ln]]`` ((C, NACC, n)) and its torque to
-    ``tau_trace[local[ln]]`` ((C, n, T - 1): the applied torques, each joint's contiguous in time), ``local`` indexing the caller's chunk of runs. Two
+    ``tau_trace[local[ln]]`` ((C, n, T - 1): the applied torques, each joint's contiguous in
+    time; written by every lane at every step, a failed one's too, without a branch: 85 ticks
+    less a block step than a test per lane, bench_block_parts), ``local`` indexing the
+    caller's chunk of runs. Two
     lanes may be the same run (a padded block): they compute and write the same values.
     ``madd``, ``mhold``, ``dist`` are ``(T, n, W)``, or ``(0, n, W)`` when no lane has any
     (then the measurement is ``q + 0.0`` and the input ``tau + 0.0``, as the scalar loop
@@ -1782,11 +1786,10 @@ def run_block(
             if k % FOLD == FOLD - 1:
                 _fold_sums(ws, n)
             if k < nt - 1:
-                for ln in range(W):
-                    if ws[_L_ALIVE + ln] != 0.0:
-                        b = local[ln]
-                        for j in range(n):
-                            tau_trace[b, j, k] = ws[J0 + j * JS + _TAU + ln]
+                for j in range(n):
+                    o = (J0 + j * JS) & _NONNEG
+                    for ln in range(W):
+                        tau_trace[local[ln], j, k] = ws[o + _TAU + ln]
         nalive = W
         if _any_failing(ws, _L_BAD, -1.0):
             nalive = 0
@@ -1933,7 +1936,8 @@ def finish_metrics(
 
     mse = total(M_SE2) / nt
     if failed.any():
-        # a failed run's trace stops where it failed; its metrics are NaN either way
+        # a failed run's trace is its restarted lane's (possibly a NaN where it failed); its
+        # metrics are NaN either way, and zeros keep the FFT's input finite
         tau_trace[failed] = 0.0
     table = {
         "mse": mse,

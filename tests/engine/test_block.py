@@ -136,6 +136,19 @@ def test_a_failing_lane_is_named_and_the_others_finish() -> None:
         np.testing.assert_array_equal(getattr(block, name), getattr(scalar, name), err_msg=name)
     with pytest.raises(sa.SimulationError, match=r"run 2 of 10"):
         run("block", ARM, ctrls, REF, **{**kw, "throw": True})
+    # metrics mode: a failed lane runs on from its initial state and writes its torque trace
+    # (which the spectral metric then clears); its runs' metrics are NaN, the others' those of
+    # the scalar path
+    block = run("block", ARM, ctrls, REF, record="metrics", **kw)
+    scalar = run("scalar", ARM, ctrls, REF, record="metrics", **kw)
+    assert block.metric_values is not None and scalar.metric_values is not None
+    np.testing.assert_array_equal(block.status_code, scalar.status_code)
+    for name in METRIC_COLUMNS:
+        a, b = block.metric_values[name], scalar.metric_values[name]
+        assert np.all(np.isnan(a[[2, 6]])), name
+        np.testing.assert_array_equal(np.isfinite(a), np.isfinite(b), err_msg=name)
+        fin = np.isfinite(b)
+        np.testing.assert_allclose(a[fin], b[fin], rtol=1e-12, atol=0, err_msg=name)
 
 
 def test_a_batch_does_not_depend_on_threads_blocks_or_lanes() -> None:
