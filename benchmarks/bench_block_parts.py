@@ -30,6 +30,7 @@ line is not found, the benchmark stops and names it.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import inspect
 import textwrap
 import time
@@ -120,7 +121,11 @@ def main() -> None:
     ticks = np.zeros(len(PHASES), dtype=np.int64)
 
     def patched(*a: Any) -> None:
-        with BK._slp_vectorised():
+        # compiled as BK.compiled compiles the kernel: the SLP vectoriser on, the lane loops at
+        # W lanes where the kernel forces that width (the RK4 step compiled before, by
+        # BK.compiled, at LLVM's own width)
+        width = BK._interleaved() if BK._interleave_lanes() else contextlib.nullcontext()
+        with BK._slp_vectorised(), width:
             kernel(*a, ticks)
 
     BK.compiled(paper=args.law == "paper", n=3)  # the real kernel's callees, from the cache

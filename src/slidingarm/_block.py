@@ -78,10 +78,12 @@ import numbers
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+import llvmlite.binding as _llvm
 import numpy as np
 from numba import njit
 from numba import types as numba_types
 from numba.core import config as _numba_config
+from numba.core.compiler_lock import global_compiler_lock
 from numba.extending import overload
 
 from slidingarm import _engine as E
@@ -1852,6 +1854,44 @@ def _slp_vectorised() -> Iterator[None]:
         _numba_config.SLP_VECTORIZE = saved
 
 
+def _interleave_lanes() -> bool:
+    """Whether the planar kernels' lane loops are compiled :func:`_interleaved`: where numba
+    compiles for a processor without AVX-512, where it was measured; for an AVX-512 one LLVM
+    keeps its own choice, with which the figures there were measured. The serial kind's
+    kernels are not (UR5, FTSMC tanh, B = 64, 1 thread, Zen 2: 8.43e5 arm-steps/s as they
+    are, 6.12e5 interleaved, 8.18e5 interleaved with the RK4 step compiled first)."""
+    from numba.core.registry import cpu_target
+
+    features = cpu_target.target_context.codegen().magic_tuple()[2]
+    return "+avx512f" not in features.split(",")
+
+
+@contextmanager
+def _interleaved() -> Iterator[None]:
+    """LLVM's loop vectoriser interleaving four vector iterations of a loop while a kernel
+    compiles, and its own choice again after (``-force-vector-interleave``, a process-wide LLVM
+    option: set and reset under numba's compiler lock, so that no other compilation sees it).
+
+    Why: on AVX2 (four float64 a register) LLVM vectorises a lane loop whose body is long
+    (the law's power, sines and cosines, each a chain of dependent polynomial steps) four
+    lanes at a time, one chain after the other, and the processor overlaps little of them;
+    interleaved four times, the loop does its sixteen lanes in one iteration, each operation
+    on four registers side by side: four chains in flight. Measured on the paper arm (Zen 2,
+    bench_block_parts, FTSMC sign, two runs each): the law 1674-1684 -> 1462-1470 ticks a
+    block step, the block step 4695-4718 -> 4455-4497. The articulated-body passes
+    (:func:`_rk4`, :func:`_paper_law`), which keep a pass's values in registers, spill so
+    (the RK4 step 2090 -> 2760 ticks): :func:`compiled` compiles them first, at LLVM's own
+    choice, and the kernel links them as they are. Forcing the vector width (16) instead gave
+    the same and made LLVM print a remark for every loop it could not vectorise. No result
+    changes (the vectoriser does not reorder a floating-point operation)."""
+    with global_compiler_lock:
+        _llvm.set_option("", f"-force-vector-interleave={W // 4}")  # four float64 a register
+        try:
+            yield
+        finally:
+            _llvm.set_option("", "-force-vector-interleave=0")
+
+
 def joints_tag(n: int) -> tuple[int, ...]:
     """The ``joints`` argument of :func:`run_block` for ``n`` joints: ``n`` zeros."""
     return (0,) * int(n)
@@ -1893,7 +1933,16 @@ def compiled(paper: bool = False, n: int = 3, *, serial: bool = False) -> None:
     # no automatic garbage collection while numba compiles (slidingarm._gc): 12.1 -> 11.2
     # CPU-s for the planar kernel, measured cold
     with _slp_vectorised(), paused():
-        run_block.compile(sig)
+        if serial or not _interleave_lanes():
+            run_block.compile(sig)
+        else:
+            # the passes that keep their values in registers at LLVM's own width first
+            rk4_sig = (a1, T.UniTuple(i8, n), f8, T.boolean)
+            _rk4.compile(rk4_sig)
+            if paper:
+                _paper_law.compile((a1, T.UniTuple(i8, n)))
+            with _interleaved():
+                run_block.compile(sig)
     _compiled.add((paper, serial, n))
 
 

@@ -307,3 +307,40 @@ def test_the_blocks_spectral_share_equals_the_metrics_one_on_hard_series() -> No
     eps = np.finfo(float).eps
     assert np.all(np.abs(resid.sum(axis=-1)) <= 4 * eps * size.sum(axis=-1))
     assert np.all(np.abs(resid @ ta) <= 4 * eps * (size @ np.abs(ta)))
+
+
+def test_the_kernels_rk4_step_is_the_one_compiled_before_it() -> None:
+    """compiled() compiles the RK4 step (the articulated-body passes) at LLVM's own choice
+    before the kernel, whose other lane loops it interleaves (BK._interleaved): the kernel must
+    link that compiled step, not type a second one of its own (which would then be compiled
+    interleaved, and spill), so the step has one signature per joint count."""
+    run("block", ARM, ftsmc("sign"), REF, q0=q0s(16), t_final=0.01, dt=DT, record="metrics")
+    counts = [len(sig[1]) for sig in BK._rk4.signatures]
+    assert 3 in counts
+    assert len(counts) == len(set(counts)), BK._rk4.signatures
+
+
+def test_interleaving_is_on_only_inside_its_context() -> None:
+    """BK._interleaved sets a process-wide LLVM option for one compilation: a loop compiled
+    inside it is interleaved (four divisions a vector iteration where LLVM's own choice makes
+    one), and one compiled after it is as one compiled before it."""
+    from numba import njit
+
+    from slidingarm import _vecmath as VM
+
+    def divisions() -> int:
+        @njit(nogil=True, error_model="numpy")
+        def logs(x: np.ndarray, out: np.ndarray) -> None:
+            for i in range(x.shape[0]):
+                out[i] = VM.log(x[i])
+
+        x = np.linspace(0.5, 2.0, 64)
+        logs(x, np.empty_like(x))
+        return int(logs.inspect_asm(logs.signatures[0]).count("vdivpd"))
+
+    before = divisions()
+    with BK._interleaved():
+        inside = divisions()
+    after = divisions()
+    assert inside >= 4 * before > 0
+    assert after == before
