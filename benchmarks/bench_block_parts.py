@@ -4,8 +4,10 @@ Run as ``python benchmarks/bench_block_parts.py [--runs B] [--repeats R] [--law 
 
 The benchmark takes the source of ``run_block`` and inserts, at the start of each phase of its
 time loop, a read of the processor's time-stamp counter (LLVM's ``readcyclecounter``, an
-``rdtsc`` on x86), then compiles that copy with the SLP vectoriser on, as
-:func:`slidingarm._block.compiled` compiles the kernel itself. It runs ``simulate_batch`` on
+``rdtsc`` on x86), then compiles that copy with the SLP vectoriser on and, where the kernel
+is so compiled, its lane loops interleaved (``_block._interleaved``, the RK4 step compiled
+before at LLVM's own choice), as :func:`slidingarm._block.compiled` compiles the kernel
+itself. It runs ``simulate_batch`` on
 the paper's arm (FTSMC with sign switching, ``record="metrics"``, 4.5 s at 5e-4 s, one thread)
 through the copy and prints, per phase, the counter ticks per block step (``W`` runs advanced
 one sample), their share, and the wall time per arm-step of the whole batch (the Python part
@@ -121,11 +123,11 @@ def main() -> None:
     ticks = np.zeros(len(PHASES), dtype=np.int64)
 
     def patched(*a: Any) -> None:
-        # compiled as BK.compiled compiles the kernel: the SLP vectoriser on, the lane loops at
-        # W lanes where the kernel forces that width (the RK4 step compiled before, by
-        # BK.compiled, at LLVM's own width)
-        width = BK._interleaved() if BK._interleave_lanes() else contextlib.nullcontext()
-        with BK._slp_vectorised(), width:
+        # compiled as BK.compiled compiles the kernel: the SLP vectoriser on, the lane loops
+        # interleaved where the kernel is (the RK4 step compiled before, by BK.compiled, at
+        # LLVM's own choice)
+        lanes = BK._interleaved() if BK._interleave_lanes() else contextlib.nullcontext()
+        with BK._slp_vectorised(), lanes:
             kernel(*a, ticks)
 
     BK.compiled(paper=args.law == "paper", n=3)  # the real kernel's callees, from the cache
