@@ -1878,7 +1878,8 @@ def _interleaved() -> Iterator[None]:
     interleaved four times, the loop does its sixteen lanes in one iteration, each operation
     on four registers side by side: four chains in flight. Measured on the paper arm (Zen 2,
     bench_block_parts, FTSMC sign, two runs each): the law 1674-1684 -> 1462-1470 ticks a
-    block step, the block step 4695-4718 -> 4455-4497. The articulated-body passes
+    block step, the block step 4695-4718 -> 4455-4497; with the paper's law, the law
+    3154-3179 -> 2772-2858, the block step 6142-6195 -> 5783-5900. The articulated-body passes
     (:func:`_rk4`, :func:`_paper_law`), which keep a pass's values in registers, spill so
     (the RK4 step 2090 -> 2760 ticks): :func:`compiled` compiles them first, at LLVM's own
     choice, and the kernel links them as they are. Forcing the vector width (16) instead gave
