@@ -1653,6 +1653,26 @@ def _reset_lane(ws: np.ndarray, n: int, ln: int) -> None:
 
 
 @njit(**_OPT)
+def _book_failures(ws: np.ndarray, n: int, lanes: np.ndarray, status: np.ndarray, sample: int) -> int:
+    """Each live lane with a status code other than OK in ``_L_CODE`` (its joint in
+    ``_L_JOINT``) fails: ``[code, sample, joint]`` into its run's row of ``status``, and it stops
+    living; every dead lane restarts (:func:`_reset_lane`). Returns the lanes still alive."""
+    nalive = 0
+    for ln in range(W):
+        if ws[_L_ALIVE + ln] != 0.0 and ws[_L_CODE + ln] != E.STATUS_OK:
+            b = lanes[ln]
+            status[b, 0] = int(ws[_L_CODE + ln])
+            status[b, 1] = sample
+            status[b, 2] = int(ws[_L_JOINT + ln])
+            ws[_L_ALIVE + ln] = 0.0
+        if ws[_L_ALIVE + ln] == 0.0:
+            _reset_lane(ws, n, ln)
+        else:
+            nalive += 1
+    return nalive
+
+
+@njit(**_OPT)
 def run_block(
     lanes: np.ndarray,
     local: np.ndarray,
@@ -1794,18 +1814,12 @@ def run_block(
                         tau_trace[local[ln], j, k] = ws[o + _TAU + ln]
         nalive = W
         if _any_failing(ws, _L_BAD, -1.0):
-            nalive = 0
+            # a non-finite torque or s as a status code (_check rewrites these rows anyway)
             for ln in range(W):
-                if ws[_L_ALIVE + ln] != 0.0 and ws[_L_BAD + ln] >= 0.0:
-                    b = lanes[ln]
-                    status[b, 0] = E.STATUS_NONFINITE
-                    status[b, 1] = k
-                    status[b, 2] = int(ws[_L_BAD + ln])
-                    ws[_L_ALIVE + ln] = 0.0
-                if ws[_L_ALIVE + ln] == 0.0:
-                    _reset_lane(ws, n, ln)
-                else:
-                    nalive += 1
+                bad = ws[_L_BAD + ln]
+                ws[_L_CODE + ln] = E.STATUS_NONFINITE if bad >= 0.0 else E.STATUS_OK
+                ws[_L_JOINT + ln] = bad
+            nalive = _book_failures(ws, n, lanes, status, k)
         if nalive == 0 or k == nt - 1:
             break
         # --- plant over [t_k, t_k+1)
@@ -1816,18 +1830,7 @@ def run_block(
         _check(ws, n, qd_limit)
         nalive = W
         if _any_failing(ws, _L_CODE, float(E.STATUS_OK)):
-            nalive = 0
-            for ln in range(W):
-                if ws[_L_ALIVE + ln] != 0.0 and ws[_L_CODE + ln] != E.STATUS_OK:
-                    b = lanes[ln]
-                    status[b, 0] = int(ws[_L_CODE + ln])
-                    status[b, 1] = k + 1
-                    status[b, 2] = int(ws[_L_JOINT + ln])
-                    ws[_L_ALIVE + ln] = 0.0
-                if ws[_L_ALIVE + ln] == 0.0:
-                    _reset_lane(ws, n, ln)
-                else:
-                    nalive += 1
+            nalive = _book_failures(ws, n, lanes, status, k + 1)
         if nalive == 0:
             break
     if metrics:
