@@ -1019,3 +1019,49 @@ def test_long_chain_buffer_fits_the_workspace() -> None:
 
     for n in range(SK.STACK_BODIES + 1, 400):
         assert (SK.W_CS - SK.W_AB) * n >= SK.buffer_floats(n), n
+
+
+# ---------------------------------------------------------------------- a singular M
+def _massless_tip_ur5() -> SerialArm:
+    """The UR5 with its last link massless and without inertia: M(q) is singular everywhere
+    (nothing resists the last joint), a URDF the loader accepts."""
+    import slidingarm.robots
+
+    text = (Path(slidingarm.robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
+    head, tail = text.split('<link name="wrist_3_link">', 1)
+    _inertial, rest = tail.split("</inertial>", 1)
+    empty = (
+        '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
+        '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
+    )
+    return SerialArm.from_urdf(head + '<link name="wrist_3_link">' + empty + "</inertial>" + rest)
+
+
+def test_a_singular_mass_matrix_leaves_defined_values_whatever_the_buffers_held() -> None:
+    """The compiled forward dynamics and RK4 step of the per-run loop at a singular ``M``:
+    ``False``, zero accelerations and an unmoved-but-finite state (so the run is reported
+    singular), however the caller's buffers were filled before (NaN here: the loop's
+    workspace is not cleared, and once a run's status depended on what it held); a NaN state
+    gives NaN accelerations (reported non-finite)."""
+    from slidingarm.models import _dispatch as MD
+
+    arm = _massless_tip_ur5()
+    kind, params, g = arm._h()
+    rng = np.random.default_rng(4)
+    q, qd, tau = rng.normal(0.0, 0.5, (3, 6))
+    with pytest.raises(ValueError, match="not positive definite"):
+        arm.forward_dynamics(q, qd, tau)
+    out = np.full(6, np.nan)
+    work = np.full((MD.WORK_ROWS, 6), np.nan)
+    assert not MD.forward_dynamics(kind, params, g, q, qd, tau, out, work)
+    np.testing.assert_array_equal(out, np.zeros(6))
+    qs, qds = q.copy(), qd.copy()
+    scratch = np.full((MD.RK4_ROWS, 6), np.nan)
+    work[:] = np.nan
+    assert not MD.rk4_step(kind, params, g, qs, qds, tau, 1e-3, False, scratch, work)
+    assert np.all(np.isfinite(qs)) and np.all(np.isfinite(qds))
+    np.testing.assert_allclose(qs, q + 1e-3 * qd, rtol=0, atol=1e-15)
+    bad = q.copy()
+    bad[1] = np.nan
+    assert not MD.forward_dynamics(kind, params, g, bad, qd, tau, out, work)
+    assert np.all(np.isnan(out))

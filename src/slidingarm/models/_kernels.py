@@ -327,6 +327,21 @@ def forward_dynamics_into(
 
 
 @njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
+def failed_pivot(out: np.ndarray, d: float) -> bool:
+    """What a forward-dynamics pass leaves in ``out`` when its pivot ``d`` is not positive:
+    :math:`0 \\cdot d` in every entry, and ``False``.
+
+    Zero if ``d`` is finite, so that the state a step carries on from stays finite and the run
+    is reported singular; NaN if ``d`` is NaN (an overflow upstream), so that the state becomes
+    non-finite and is reported as such first, as the block path does. Never what the memory
+    held before (the per-run loop's workspace is not cleared, so the status would depend on it).
+    """
+    for j in range(out.shape[0]):
+        out[j] = 0.0 * d
+    return False
+
+
+@njit(cache=_CACHE, nogil=True, error_model="numpy", forceinline=True)
 def aba_from_angles_into(
     arm: np.ndarray,
     g: float,
@@ -353,7 +368,8 @@ def aba_from_angles_into(
     :math:`p^a = p^A + I^a c + U u / D`, :math:`u = \\tau_i - S^T p^A` tip to base;
     accelerations :math:`\\ddot q_i = (u_i - U_i^T a'_i) / D_i` base to tip, the base
     accelerated upwards by ``g``. The :math:`D_i` are the pivots of a factorisation of
-    :math:`M`, so the function returns ``False`` (``out`` undefined) if one is not positive.
+    :math:`M`, so the function returns ``False`` (``out`` as :func:`failed_pivot` leaves it)
+    if one is not positive.
     O(n) with one division per joint; more accurate than forming :math:`M` and solving.
     """
     n = qd.shape[0]
@@ -402,7 +418,7 @@ def aba_from_angles_into(
         pa1 = -wi * fy + p1
         pa2 = wi * fx + p2
         if not d > 0.0:
-            return False
+            return failed_pivot(out, d)
         dinv = 1.0 / d
         u = tau[i] - pa0
         out[i] = u

@@ -725,7 +725,7 @@ def _aba(
     ``W_CS``, ``W_CS + 1`` of ``work`` (the only kinematics it reads) and ``buf`` a buffer
     filled by :func:`_aba_buffer`: :math:`\\ddot q = M^{-1}(\\tau - h)` into ``out``;
     ``False`` if an articulated inertia along its joint, :math:`D_i = s_i^T I^A_i s_i`, is not
-    positive (``M`` not positive definite).
+    positive (``M`` not positive definite; ``out`` as :func:`PK.failed_pivot` leaves it).
 
     Everything is in root (world) coordinates at the root's origin, so no spatial transform
     is applied to an inertia or a force. Pass 1 (root to tip): the body's pose
@@ -1013,7 +1013,7 @@ def _aba(
         u5 = (b02 * s0 + b12 * s1) + (b22 * s2 + c02 * s3) + (c12 * s4 + c22 * s5)
         d = (s0 * u0 + s1 * u1) + (s2 * u2 + s3 * u3) + (s4 * u4 + s5 * u5)
         if not d > 0.0:
-            return False
+            return PK.failed_pivot(out, d)
         u = tau[i] - ((s0 * pn0 + s1 * pn1) + (s2 * pn2 + s3 * pf0) + (s4 * pf1 + s5 * pf2))
         rd = 1.0 / d
         buf[k + _F_U * _L] = u0
