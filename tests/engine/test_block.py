@@ -320,6 +320,16 @@ def test_the_kernels_rk4_step_is_the_one_compiled_before_it() -> None:
     assert len(counts) == len(set(counts)), BK._rk4.signatures
 
 
+def test_the_spectral_passes_run_as_compiled_with_the_slp_vectoriser() -> None:
+    """BK.spectral_compiled compiles the detrending and the power sums for the arrays
+    hf_power_share passes, with the SLP vectoriser on: a block's metrics must run those
+    (one signature each), not a second specialisation numba would compile lazily without it
+    (the same bits, at 2.6 times the time)."""
+    run("block", ARM, ftsmc("sign"), REF, q0=q0s(16), t_final=0.01, dt=DT, record="metrics")
+    assert len(BK._detrend.signatures) == 1, BK._detrend.signatures
+    assert len(BK._power_sums.signatures) == 1, BK._power_sums.signatures
+
+
 def test_interleaving_is_on_only_inside_its_context() -> None:
     """BK._interleaved sets a process-wide LLVM option for one compilation: a loop compiled
     inside it is interleaved (four divisions a vector iteration where LLVM's own choice makes
