@@ -150,7 +150,11 @@ _L_G = 8 * W
 _L_MG = 9 * W
 _L_T0 = 10 * W
 _L_T1 = 11 * W
-_NLV = 12
+# 1 / the tip's pivot (its rigid inertia about its joint, as the ABA forms it) of the plant
+# and of the nominal model: constant in a run, so that the ABA does not divide by it
+_L_PTIP = 12 * W
+_L_MTIP = 13 * W
+_NLV = 14
 #: Start of the per-joint rows: ws[J0 + i JS + _X + ln] for joint i.
 J0 = _NLV * W
 _Q = 0 * W
@@ -487,7 +491,7 @@ def _aba_source(n: int) -> str:
         return f"ws[{J0 + i * JS + k * W} + prow + ln]"
 
     lines = [
-        "def aba(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out):",
+        "def aba(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out, tiprow):",
         f"    for ln in range({W}):",
     ]
     add = lines.append
@@ -539,7 +543,8 @@ def _aba_source(n: int) -> str:
         add(ind + f"pa1 = -w{i} * fy + t7")
         add(ind + f"pa2 = w{i} * fx + t8")
         add(ind + "ok = ok if d > 0.0 else 0.0")
-        add(ind + f"dinv{i} = 1.0 / d")
+        # the tip's 1/d, constant in a run, computed once as it is here (:func:`_tip_pivots`)
+        add(ind + (f"dinv{i} = ws[tiprow + ln]" if ii == 0 else f"dinv{i} = 1.0 / d"))
         add(ind + f"tau{i} = {arg(i, 'trow')}")
         add(ind + f"u{i} = tau{i} - pa0")
         add(ind + f"cvx{i} = vy{i} * vt{i}")
@@ -586,17 +591,19 @@ def _aba(  # pragma: no cover - typed
     crow: int,
     srow: int,
     out: int,
+    tiprow: int,
 ) -> None:
     """:func:`_aba_source` for ``len(joints)`` joints, generated when numba types it: the
     arm's table at joint row ``prow``, the velocity in joint row ``vrow``, the input in
     ``trow``, the gravity in lane row ``grow``, the angles' cosines and sines in ``crow``,
     ``srow``, the acceleration into ``out``, a pivot that is not positive clearing lane row
-    ``okrow`` (constants where it is inlined)."""
+    ``okrow``, the reciprocal of the tip's pivot read from lane row ``tiprow``
+    (:func:`_tip_pivots`; constants where it is inlined)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_aba, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
-def _aba_typed(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out):  # type: ignore[no-untyped-def]
+def _aba_typed(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out, tiprow):  # type: ignore[no-untyped-def]
     scope: dict[str, object] = {}
     exec(_aba_source(len(joints)), scope)  # our own generated source
     return scope["aba"]
@@ -694,16 +701,16 @@ def _rk4(ws: np.ndarray, joints: tuple[int, ...], h: float, known: bool) -> None
         _angles_state(ws, n)
     # each stage's acceleration straight into its row (the ABA reads its inputs from the
     # rows given): no copies between the stages
-    _aba(ws, joints, _PM, _QD, _TAPP, _L_G, _L_OK, _BC, _BS, _K0)
+    _aba(ws, joints, _PM, _QD, _TAPP, _L_G, _L_OK, _BC, _BS, _K0, _L_PTIP)
     _stage(ws, n, 0.5, h, True, _K0, _K0)
     _stage_angles(ws, n)
-    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _K1)
+    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _K1, _L_PTIP)
     _stage(ws, n, 0.5, h, False, _K1, _K0)
     _stage_angles(ws, n)
-    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _K2)
+    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _K2, _L_PTIP)
     _stage(ws, n, 1.0, h, False, _K2, _K1)
     _stage_angles(ws, n)
-    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _KX)
+    _aba(ws, joints, _PM, _VT, _TAPP, _L_G, _L_OK, _AC, _AS, _KX, _L_PTIP)
     _rk4_finish(ws, n, h)
 
 
@@ -870,7 +877,8 @@ def _plant_step_typed(ws, joints, h, known, law_tag):  # type: ignore[no-untyped
 
 
 def _load_tables(ws: np.ndarray, n: int, pp: np.ndarray, mp: np.ndarray, law_tag: np.ndarray) -> None:  # pragma: no cover - typed
-    """A serial block's plant and nominal tables (``(rows, n, W)``) into its serial rows."""
+    """A serial block's plant and nominal tables (``(rows, n, W)``) into its serial rows; a
+    planar block's tip pivots (:func:`_tip_pivots`) from its rows loaded before."""
     raise NotImplementedError("compiled only")
 
 
@@ -878,7 +886,25 @@ def _load_tables(ws: np.ndarray, n: int, pp: np.ndarray, mp: np.ndarray, law_tag
 def _load_tables_typed(ws, n, pp, mp, law_tag):  # type: ignore[no-untyped-def]
     if _tag_kind(law_tag) == "serial":
         return lambda ws, n, pp, mp, law_tag: _load_serial(ws, n, pp, mp)
-    return lambda ws, n, pp, mp, law_tag: None
+    return lambda ws, n, pp, mp, law_tag: _tip_pivots(ws, n)
+
+
+@njit(**_OPT)
+def _tip_pivots(ws: np.ndarray, n: int) -> None:
+    """The reciprocals of the tip's pivot of the plant (``_PM`` rows) and of the nominal model
+    (``_MM`` rows) into ``_L_PTIP``, ``_L_MTIP``: :math:`1 / (I + m c^2 + 0)`, the tip's
+    :math:`1/d` of :func:`_aba_source` (its rigid inertia about its joint plus the zero a
+    child would add), formed by the same operations, so the same bits. It depends on
+    nothing that changes in a run, and its division was one of three in every ABA: the RK4
+    step of a paper-arm block 2088-2094 -> 1991-2046 ticks (bench_block_parts, three runs
+    each)."""
+    o = (J0 + (n - 1) * JS) & _NONNEG
+    for row, tip in ((_PM, _L_PTIP), (_MM, _L_MTIP)):
+        for ln in range(W):
+            m = ws[o + row + ln]
+            c = ws[o + row + 2 * W + ln]
+            ia = ws[o + row + 3 * W + ln] + m * c * c
+            ws[tip + ln] = 1.0 / (ia + 0.0)
 
 
 @njit(**_OPT)
@@ -1428,14 +1454,14 @@ def _paper_law(ws: np.ndarray, joints: tuple[int, ...]) -> None:
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
             ws[o + _PZ + ln] = 0.0
-    _aba(ws, joints, _MM, _QDM, _PZ, _L_MG, _L_T0, _LC, _LS, _PF)
+    _aba(ws, joints, _MM, _QDM, _PZ, _L_MG, _L_T0, _LC, _LS, _PF, _L_MTIP)
     for i in range(n):
         for j in range(n):
             o = (J0 + j * JS) & _NONNEG
             unit = 1.0 if j == i else 0.0
             for ln in range(W):
                 ws[o + _PRHS + ln] = unit
-        _aba(ws, joints, _MM, _PZ, _PRHS, _L_T1, _L_T0, _LC, _LS, _PCOL)
+        _aba(ws, joints, _MM, _PZ, _PRHS, _L_T1, _L_T0, _LC, _LS, _PCOL, _L_MTIP)
         oi = (J0 + i * JS) & _NONNEG
         for ln in range(W):
             ws[oi + _TAU + ln] = (
