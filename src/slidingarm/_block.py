@@ -1531,7 +1531,9 @@ def _measure(ws: np.ndarray, n: int, k: int, vcode: int, dt: float, has_hold: bo
 @njit(**_OPT)
 def _clip(ws: np.ndarray, n: int) -> None:
     """Torque limits, the held input ``tau + d`` (``_DIST``), and in ``_L_BAD`` the first
-    joint whose torque or ``s`` is not finite (-1: none), per lane."""
+    joint whose torque or ``s`` is not finite (-1: none), per lane; that joint is looked for
+    only in a step where some value is not finite (one vectorised test over all)."""
+    allfin = True
     for ln in range(W):
         ws[_L_BAD + ln] = -1.0
     for j in range(n):
@@ -1543,17 +1545,34 @@ def _clip(ws: np.ndarray, n: int) -> None:
             t_c = _clamp(t_j, nlim, lim)
             ws[o + _TAU + ln] = t_c
             ws[o + _TAPP + ln] = t_c + ws[o + _DIST + ln]
-            fin = math.isfinite(t_c) & math.isfinite(ws[o + _S + ln])
+            allfin &= math.isfinite(t_c) & math.isfinite(ws[o + _S + ln])
+    if allfin:
+        return
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            fin = math.isfinite(ws[o + _TAU + ln]) & math.isfinite(ws[o + _S + ln])
             bad = ws[_L_BAD + ln]
             ws[_L_BAD + ln] = float(j) if ((bad < 0.0) & (not fin)) else bad
 
 
 @njit(**_OPT)
 def _check(ws: np.ndarray, n: int, qd_limit: float) -> None:
-    """:func:`slidingarm._engine.check_state` per lane into ``_L_CODE``, ``_L_JOINT``."""
+    """:func:`slidingarm._engine.check_state` per lane into ``_L_CODE``, ``_L_JOINT``; the
+    codes worked out only in a step where some lane fails a test (one vectorised test over
+    all: every position finite, every speed within ``qd_limit``, every pivot positive)."""
     for ln in range(W):
         ws[_L_CODE + ln] = E.STATUS_OK
         ws[_L_JOINT + ln] = -1.0
+    fine = True
+    for ln in range(W):
+        fine &= ws[_L_OK + ln] != 0.0
+    for j in range(n):
+        o = (J0 + j * JS) & _NONNEG
+        for ln in range(W):
+            fine &= math.isfinite(ws[o + _Q + ln]) & (abs(ws[o + _QD + ln]) <= qd_limit)
+    if fine:
+        return
     for j in range(n):
         o = (J0 + j * JS) & _NONNEG
         for ln in range(W):
