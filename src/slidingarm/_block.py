@@ -2040,21 +2040,62 @@ def compiled(paper: bool = False, n: int = 3, *, serial: bool = False) -> None:
     _compiled.add((paper, serial, n))
 
 
-def _entry_time(t: np.ndarray, last: np.ndarray, xk: np.ndarray, xk1: np.ndarray, delta: float) -> np.ndarray:
-    """:func:`slidingarm.metrics._entry_time` from the streamed last sample outside the band
-    (``-1``: none) and the values there and at the next sample: the same formulas."""
+#: The metrics :func:`_finish_streamed` works out, in the order of its output's rows.
+_STREAMED = (
+    "mse", "rmse", "iae", "itae", "reaching_time", "settling_time", "steady_state_error",
+    "final_error", "control_effort", "peak_torque", "chattering",
+)  # fmt: skip
+
+
+@njit(inline="always", **_OPT)
+def _entry_time(t: np.ndarray, last: float, xk: float, xk1: float, delta: float) -> float:
+    """:func:`slidingarm.metrics._entry_time` of one series from the streamed last sample
+    outside the band (``-1``: none) and the values there and at the next sample: the same
+    formulas (the crossing of the band's edge ``sign(x_k) delta`` interpolated linearly in
+    ``[t_k, t_{k+1}]``; ``t_0`` if never outside, ``inf`` if outside at the last sample)."""
     nt = t.shape[0]
-    any_out = last >= 0
-    li = np.where(any_out, last, nt - 1).astype(np.int64)
-    nxt = np.minimum(li + 1, nt - 1)
-    level = np.sign(xk) * delta
+    if not last >= 0.0:
+        return t[0]
+    li = int(last)
+    if li == nt - 1:
+        return math.inf
+    nxt = min(li + 1, nt - 1)
+    sg = 1.0 if xk > 0.0 else (-1.0 if xk < 0.0 else (0.0 if xk == 0.0 else xk))
+    level = sg * delta
     denom = xk - xk1
-    safe = np.where(denom == 0.0, 1.0, denom)
-    frac = np.clip((xk - level) / safe, 0.0, 1.0)
-    t_cross = t[li] + frac * (t[nxt] - t[li])
-    out = np.where(any_out, t_cross, t[0])
-    out = np.where(any_out & (li == nt - 1), np.inf, out)
-    return np.asarray(out, dtype=np.float64)
+    safe = 1.0 if denom == 0.0 else denom
+    frac = (xk - level) / safe
+    frac = frac if frac != frac else (0.0 if frac < 0.0 else (1.0 if frac > 1.0 else frac))
+    return t[li] + frac * (t[nxt] - t[li])
+
+
+@njit(**_OPT)
+def _finish_streamed(t: np.ndarray, acc: np.ndarray, failed: np.ndarray, delta_s: float,
+                     delta_e: float, out: np.ndarray) -> None:  # fmt: skip
+    """The metrics of :data:`_STREAMED` from the accumulators ``acc`` (C, NACC, n) into
+    ``out`` (len(_STREAMED), C, n), NaN for ``failed`` runs: :func:`finish_metrics`' formulas
+    (a compensated sum is its total plus its compensation; ``mse`` the sum of squares over
+    ``T``, ``iae`` and ``itae`` halves of their trapezoid sums, ``chattering`` over the
+    span), compiled: as two dozen numpy calls on (C, n) arrays they took 0.2 ms a block."""
+    nt = t.shape[0]
+    span = t[nt - 1] - t[0]
+    for b in range(acc.shape[0]):
+        for j in range(acc.shape[2]):
+            mse = (acc[b, M_SE2, j] + acc[b, M_SE2C, j]) / nt
+            out[0, b, j] = mse
+            out[1, b, j] = math.sqrt(mse)
+            out[2, b, j] = 0.5 * (acc[b, M_IAE, j] + acc[b, M_IAEC, j])
+            out[3, b, j] = 0.5 * (acc[b, M_ITAE, j] + acc[b, M_ITAEC, j])
+            out[4, b, j] = _entry_time(t, acc[b, M_S_LAST, j], acc[b, M_S_XK, j], acc[b, M_S_XK1, j], delta_s)
+            out[5, b, j] = _entry_time(t, acc[b, M_E_LAST, j], acc[b, M_E_XK, j], acc[b, M_E_XK1, j], delta_e)
+            out[6, b, j] = acc[b, M_SSE, j]
+            out[7, b, j] = acc[b, M_FINAL, j]
+            out[8, b, j] = acc[b, M_EFF, j] + acc[b, M_EFFC, j]
+            out[9, b, j] = acc[b, M_PEAK, j]
+            out[10, b, j] = (acc[b, M_CHAT, j] + acc[b, M_CHATC, j]) / span
+            if failed[b]:
+                for r in range(out.shape[0]):
+                    out[r, b, j] = np.nan
 
 
 def finish_metrics(
@@ -2070,37 +2111,20 @@ def finish_metrics(
 ) -> dict[str, np.ndarray]:
     """The metrics of :func:`slidingarm.results.metric_values` from the streamed accumulators
     ``acc`` (B, NACC, n) and the applied torques ``tau_trace`` (B, n, T - 1), NaN for
-    ``failed`` runs; ``work``: the spectral metric's buffers (:class:`SpectrumWork`).
-    ``tau_trace`` is scratch: :func:`hf_power_share` overwrites it with its residuals."""
-    nt = t.shape[0]
-
-    def total(row: int) -> np.ndarray:
-        return np.asarray(acc[:, row] + acc[:, row + 1])
-
-    mse = total(M_SE2) / nt
+    ``failed`` runs (:func:`_finish_streamed`, :func:`hf_power_share`); ``work``: the
+    spectral metric's buffers (:class:`SpectrumWork`). ``tau_trace`` is scratch:
+    :func:`hf_power_share` overwrites it with its residuals."""
+    failed = np.ascontiguousarray(failed, dtype=np.bool_)
+    streamed = np.empty((len(_STREAMED), acc.shape[0], acc.shape[2]))
+    _finish_streamed(t, np.ascontiguousarray(acc), failed, float(delta_s), float(delta_e), streamed)
     if failed.any():
         # a failed run's trace is its restarted lane's (possibly a NaN where it failed); its
         # metrics are NaN either way, and zeros keep the FFT's input finite
         tau_trace[failed] = 0.0
-    table = {
-        "mse": mse,
-        "rmse": np.sqrt(mse),
-        "iae": 0.5 * total(M_IAE),
-        "itae": 0.5 * total(M_ITAE),
-        "reaching_time": _entry_time(t, acc[:, M_S_LAST], acc[:, M_S_XK], acc[:, M_S_XK1], delta_s),
-        "settling_time": _entry_time(t, acc[:, M_E_LAST], acc[:, M_E_XK], acc[:, M_E_XK1], delta_e),
-        "steady_state_error": np.array(acc[:, M_SSE]),
-        "final_error": np.array(acc[:, M_FINAL]),
-        "control_effort": total(M_EFF),
-        "peak_torque": np.array(acc[:, M_PEAK]),
-        "chattering": total(M_CHAT) / (t[-1] - t[0]),
-        "hf_power_share": hf_power_share(t, tau_trace, cutoff_hz, work=work),
-    }
-    out = {}
-    for name, v in table.items():
-        arr = np.array(v, dtype=np.float64)
-        arr[failed] = np.nan
-        out[name] = arr
+    out = dict(zip(_STREAMED, streamed, strict=True))
+    share = hf_power_share(t, tau_trace, cutoff_hz, work=work)
+    share[failed] = np.nan
+    out["hf_power_share"] = share
     return out
 
 
