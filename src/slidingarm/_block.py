@@ -1835,12 +1835,6 @@ def run_block(
     delta_e = bands[1]
     start = int(bands[2])
     bands_until = 0
-    # the torque trace as one flat array, and where each lane's series of each joint starts
-    trace = tau_trace.reshape(-1)
-    rows = np.empty(n * W, dtype=np.int64)
-    for j in range(n):
-        for ln in range(W):
-            rows[j * W + ln] = (local[ln] * n + j) * tau_trace.shape[2]
     for ln in range(W):
         ws[_L_G + ln] = pg[ln]
         ws[_L_MG + ln] = mg[ln]
@@ -1901,7 +1895,7 @@ def run_block(
                 for j in range(n):
                     o = (J0 + j * JS) & _NONNEG
                     for ln in range(W):
-                        trace[(rows[j * W + ln] + k) & _NONNEG] = ws[o + _TAU + ln]
+                        tau_trace[local[ln], j, k] = ws[o + _TAU + ln]
         nalive = W
         if _any_failing(ws, _L_BAD, -1.0):
             # a non-finite torque or s as a status code (_check rewrites these rows anyway)
