@@ -165,6 +165,21 @@ def test_batch_equals_single_runs() -> None:
         assert one.seed == single.seed == seeds[b]
 
 
+def test_each_run_of_a_batch_owns_its_parameter_lists() -> None:
+    """Inputs given once for the batch (one q0, qd0 and torque limit) are listed per run in
+    its params: editing one run's lists leaves the other runs' as they were."""
+    batch = simulate_batch(
+        ARM, ftsmc(), REF, q0=PAPER_Q0, seeds=[1, 2], torque_limit=10.0, t_final=0.01, dt=DT
+    )
+    first, second = batch.params
+    for key in ("q0", "qd0", "torque_limit"):
+        assert first[key] == second[key]
+        first[key][0] = 99.0
+        assert second[key][0] != 99.0, key
+    assert second["q0"] == np.asarray(PAPER_Q0, dtype=float).tolist()
+    assert second["torque_limit"] == [10.0, 10.0, 10.0]
+
+
 def test_batch_broadcasting() -> None:
     kw: dict[str, Any] = {"t_final": 0.05, "dt": DT}
     # B from the plants

@@ -1052,8 +1052,9 @@ def simulate_batch(
             values.append(memo[key])
         return values if len(values) > 1 else values * nb
 
-    def rows_of(x: FloatArray) -> list[Any]:
-        return x.tolist() if x.shape[0] > 1 else x.tolist() * nb
+    def own_lists(x: list[Any]) -> list[Any]:
+        # each run's own list (a shared one would change every run's when one is edited)
+        return x if len(x) > 1 else [None if x[0] is None else list(x[0]) for _ in range(nb)]
 
     ref_dict = reference.to_dict()
     params = [
@@ -1079,11 +1080,11 @@ def simulate_batch(
             column("ctrl", ctrls, lambda x: x.to_dict()),
             column("label", ctrls, lambda x: x.label),
             column("s_unit", ctrls, lambda x: x.s_unit),
-            rows_of(q0a),
-            rows_of(qd0a),
+            own_lists(q0a.tolist()),
+            own_lists(qd0a.tolist()),
             column("sensor", sensors, lambda x: x.to_dict()),
             column("dist", dists, lambda x: [d.to_dict() for d in x]),
-            column("limit", limits, lambda x: None if x is None else x.tolist()),
+            own_lists([None if x is None else x.tolist() for x in limits]),
             run_seeds,
             strict=True,
         )
