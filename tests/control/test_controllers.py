@@ -21,6 +21,7 @@ import copy
 import math
 import pickle
 import re
+import sys
 import zlib
 from collections.abc import Callable
 from pathlib import Path
@@ -46,6 +47,9 @@ from slidingarm import (
 )
 from slidingarm.control import _kernels as CK
 from slidingarm.control.surfaces import DEFAULT_EPS_E, FastTerminalSurface
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from _arms import massless_tip_ur5
 
 ARM = PlanarArm.paper()
 N = ARM.n
@@ -569,16 +573,7 @@ def test_exact_model_law_gives_the_reaching_law() -> None:
 def _ur5(massless_tip: bool = False) -> SerialArm:
     """The shipped UR5, or the UR5 with no mass nor inertia in its last link (a URDF the loader
     accepts; its mass matrix is singular at every state)."""
-    if not massless_tip:
-        return robots.load("ur5")
-    text = (Path(robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
-    head, tail = text.split('<link name="wrist_3_link">', 1)
-    _inertial, rest = tail.split("</inertial>", 1)
-    empty = (
-        '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
-        '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
-    )
-    return SerialArm.from_urdf(head + '<link name="wrist_3_link">' + empty + "</inertial>" + rest)
+    return massless_tip_ur5() if massless_tip else robots.load("ur5")
 
 
 def test_paper_law_on_a_serial_model_is_eqs_19_to_22() -> None:

@@ -27,6 +27,9 @@ from slidingarm.models import _spatial as SK
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "models"))
 from urdf_chains import random_chain
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from _arms import massless_tip_ur5
+
 UR5 = sa.robots.load("ur5")
 
 
@@ -247,14 +250,7 @@ def test_the_papers_law_has_no_serial_block_kernel() -> None:
 def test_a_massless_tip_is_reported_singular_on_both_paths() -> None:
     """The UR5 with its last link massless (a URDF the loader accepts): both paths stop every
     run at the first step with the same status (singular, sample 1, joint 0)."""
-    text = (Path(sa.robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
-    head, tail = text.split('<link name="wrist_3_link">', 1)
-    _inertial, rest = tail.split("</inertial>", 1)
-    empty = (
-        '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
-        '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
-    )
-    arm = sa.SerialArm.from_urdf(head + '<link name="wrist_3_link">' + empty + "</inertial>" + rest)
+    arm = massless_tip_ur5()
     ctrl = sa.FTSMC(arm, alpha=2.0, beta=2.0, p=5, q=3, k=20.0, switching="tanh", width=0.05)
     ref = sa.QuinticReference(np.zeros(6), np.full(6, 0.5), duration=1.0)
     q0 = np.random.default_rng(2).normal(0.0, 0.1, (10, 6))

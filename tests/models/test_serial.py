@@ -21,6 +21,7 @@ from __future__ import annotations
 import functools
 import pickle
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,6 +48,9 @@ from urdf_chains import (
     random_chain,
     random_states,
 )
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from _arms import massless_tip_ur5
 
 serial = pytest.importorskip("slidingarm.models.serial")
 SerialArm = serial.SerialArm
@@ -1022,21 +1026,6 @@ def test_long_chain_buffer_fits_the_workspace() -> None:
 
 
 # ---------------------------------------------------------------------- a singular M
-def _massless_tip_ur5() -> SerialArm:
-    """The UR5 with its last link massless and without inertia: M(q) is singular everywhere
-    (nothing resists the last joint), a URDF the loader accepts."""
-    import slidingarm.robots
-
-    text = (Path(slidingarm.robots.__file__).parent / "ur5" / "ur5.urdf").read_text()
-    head, tail = text.split('<link name="wrist_3_link">', 1)
-    _inertial, rest = tail.split("</inertial>", 1)
-    empty = (
-        '<inertial><mass value="0"/><origin rpy="0 0 0" xyz="0 0 0"/>'
-        '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>'
-    )
-    return SerialArm.from_urdf(head + '<link name="wrist_3_link">' + empty + "</inertial>" + rest)
-
-
 def test_a_singular_mass_matrix_leaves_defined_values_whatever_the_buffers_held() -> None:
     """The compiled forward dynamics and RK4 step of the per-run loop at a singular ``M``:
     ``False``, zero accelerations and an unmoved-but-finite state (so the run is reported
@@ -1045,7 +1034,7 @@ def test_a_singular_mass_matrix_leaves_defined_values_whatever_the_buffers_held(
     gives NaN accelerations (reported non-finite)."""
     from slidingarm.models import _dispatch as MD
 
-    arm = _massless_tip_ur5()
+    arm = massless_tip_ur5()
     kind, params, g = arm._h()
     rng = np.random.default_rng(4)
     q, qd, tau = rng.normal(0.0, 0.5, (3, 6))
