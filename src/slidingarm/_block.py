@@ -1673,25 +1673,24 @@ def _track_bands(ws: np.ndarray, n: int, q_ref: np.ndarray, k: int, delta_s: flo
         o = (J0 + j * JS) & _NONNEG
         qr = q_ref[k, j]
         for ln in range(W):
-            e = ws[o + _Q + ln] - qr
-            ae = abs(e)
             s = ws[o + _S + ln]
-            so = abs(s) > delta_s
-            last = ws[o + _A_S_LAST + ln]
-            x1 = ws[o + _A_S_XK1 + ln]
-            x1 = s if fk == last + 1.0 else x1
-            ws[o + _A_S_XK1 + ln] = s if so else x1
-            ws[o + _A_S_LAST + ln] = fk if so else last
-            xk = ws[o + _A_S_XK + ln]
-            ws[o + _A_S_XK + ln] = s if so else xk
-            eo = ae > delta_e
-            last = ws[o + _A_E_LAST + ln]
-            x1 = ws[o + _A_E_XK1 + ln]
-            x1 = e if fk == last + 1.0 else x1
-            ws[o + _A_E_XK1 + ln] = e if eo else x1
-            ws[o + _A_E_LAST + ln] = fk if eo else last
-            xk = ws[o + _A_E_XK + ln]
-            ws[o + _A_E_XK + ln] = e if eo else xk
+            e = ws[o + _Q + ln] - qr
+            _track_band(ws, o + ln, _A_S_LAST, _A_S_XK, _A_S_XK1, s, abs(s) > delta_s, fk)
+            _track_band(ws, o + ln, _A_E_LAST, _A_E_XK, _A_E_XK1, e, abs(e) > delta_e, fk)
+
+
+@njit(inline="always", **_OPT)
+def _track_band(ws: np.ndarray, at: int, last_row: int, xk_row: int, xk1_row: int, x: float,
+                outside: bool, fk: float) -> None:  # fmt: skip
+    """One series' band bookkeeping at sample ``fk`` (value ``x``, ``outside`` its band): the
+    last sample outside, the value there, and the value at the sample after it."""
+    last = ws[at + last_row]
+    x1 = ws[at + xk1_row]
+    x1 = x if fk == last + 1.0 else x1
+    ws[at + xk1_row] = x if outside else x1
+    ws[at + last_row] = fk if outside else last
+    xk = ws[at + xk_row]
+    ws[at + xk_row] = x if outside else xk
 
 
 @njit(forceinline=True, **_OPT)
