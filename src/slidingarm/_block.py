@@ -611,14 +611,6 @@ def _aba_typed(ws, joints, prow, vrow, trow, grow, okrow, crow, srow, out, tipro
     return scope["aba"]
 
 
-_R6 = 1.0 / 6.0
-_R12 = 1.0 / 12.0
-_R20 = 1.0 / 20.0
-_R30 = 1.0 / 30.0
-_R42 = 1.0 / 42.0
-_R56 = 1.0 / 56.0
-
-
 @njit(forceinline=True, **_OPT)
 def _stage_angles(ws: np.ndarray, n: int) -> None:
     """Angles of the stage position ``_QT`` into ``_AC``, ``_AS``: the base angles rotated by
@@ -646,13 +638,9 @@ def _stage_angles(ws: np.ndarray, n: int) -> None:
         for ln in range(W):
             delta = ws[_L_DELTA + ln] + ws[o + _DQ + ln]
             ws[_L_DELTA + ln] = delta
-            c = ws[o + _BC + ln]
-            s = ws[o + _BS + ln]
-            d2 = delta * delta
-            sin_d = delta * (1.0 - d2 * _R6 * (1.0 - d2 * _R20 * (1.0 - d2 * _R42)))
-            cos_m1 = -0.5 * d2 * (1.0 - d2 * _R12 * (1.0 - d2 * _R30 * (1.0 - d2 * _R56)))
-            ws[o + _AC + ln] = c + (c * cos_m1 - s * sin_d)
-            ws[o + _AS + ln] = s + (s * cos_m1 + c * sin_d)
+            c, s = PK.rotated(ws[o + _BC + ln], ws[o + _BS + ln], delta)
+            ws[o + _AC + ln] = c
+            ws[o + _AS + ln] = s
         if anyfar:
             for ln in range(W):
                 far = ws[_L_FAR + ln] != 0.0
