@@ -417,11 +417,12 @@ def _rnea_source(n: int) -> str:
         add(ind + f"l{i} = {row(i, _ML)}")
         add(ind + f"cphi{i} = {row(i, _LC)}")
         add(ind + f"sphi{i} = {row(i, _LS)}")
-        add(ind + f"r2_{i} = ax + wd * (-c * sphi{i}) - w * w * c * cphi{i}")
-        add(ind + f"r3_{i} = ay + wd * (c * cphi{i}) - w * w * c * sphi{i}")
+        add(ind + "ww = w * w")
+        add(ind + f"r2_{i} = fma(-wd, c * sphi{i}, fma(-ww, c * cphi{i}, ax))")
+        add(ind + f"r3_{i} = fma(wd, c * cphi{i}, fma(-ww, c * sphi{i}, ay))")
         add(ind + f"r4_{i} = wd")
-        add(ind + f"ax = ax + wd * (-l{i} * sphi{i}) - w * w * l{i} * cphi{i}")
-        add(ind + f"ay = ay + wd * (l{i} * cphi{i}) - w * w * l{i} * sphi{i}")
+        add(ind + f"ax = fma(-wd, l{i} * sphi{i}, fma(-ww, l{i} * cphi{i}, ax))")
+        add(ind + f"ay = fma(wd, l{i} * cphi{i}, fma(-ww, l{i} * sphi{i}, ay))")
     add(ind + "fx = 0.0")
     add(ind + "fy = 0.0")
     add(ind + "mom = 0.0")
@@ -430,10 +431,9 @@ def _rnea_source(n: int) -> str:
         add(ind + f"c = {row(i, _MC)}")
         add(ind + f"gx = m * r2_{i}")
         add(ind + f"gy = m * r3_{i}")
-        add(
-            ind + f"mom = ({row(i, _MI)} * r4_{i} + c * (cphi{i} * gy - sphi{i} * gx)"
-            f" + l{i} * (cphi{i} * fy - sphi{i} * fx) + mom)"
-        )
+        add(ind + f"rc = fma(cphi{i}, gy, -(sphi{i} * gx))")
+        add(ind + f"rl = fma(cphi{i}, fy, -(sphi{i} * fx))")
+        add(ind + f"mom = fma({row(i, _MI)}, r4_{i}, fma(c, rc, fma(l{i}, rl, mom)))")
         add(ind + "fx = fx + gx")
         add(ind + "fy = fy + gy")
         add(ind + f"{row(i, _TAU)} = mom")
@@ -447,7 +447,7 @@ def _rnea(ws: np.ndarray, joints: tuple[int, ...]) -> None:  # pragma: no cover 
 
 @overload(_rnea, jit_options={"nogil": True, "error_model": "numpy", "forceinline": True})
 def _rnea_typed(ws, joints):  # type: ignore[no-untyped-def]
-    scope: dict[str, object] = {}
+    scope: dict[str, object] = {"fma": VM._fma}
     exec(_rnea_source(len(joints)), scope)  # our own generated source
     return scope["rnea"]
 

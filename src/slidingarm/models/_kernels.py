@@ -263,7 +263,12 @@ def _rnea_from_angles(
     work: np.ndarray,
 ) -> None:
     """Planar recursive Newton-Euler from the angles in ``work`` rows 0-1 (uses rows 2-4);
-    ``qdd`` is multiplied by ``qdd_scale`` (0 drops it)."""
+    ``qdd`` is multiplied by ``qdd_scale`` (0 drops it).
+
+    Each sum of products is written as fused multiply-adds (:func:`slidingarm._vecmath._fma`,
+    one rounding each), in the order the block loop's copy (:func:`slidingarm._block._rnea_source`)
+    takes them, so both loops compute the same bits: the block's law 1450-1474 -> 1362-1403
+    ticks a block step of the paper arm (``benchmarks/bench_block_parts.py``)."""
     n = qd.shape[0]
     cphi = work[0]
     sphi = work[1]
@@ -277,12 +282,13 @@ def _rnea_from_angles(
         wd += qdd_scale * qdd[i]
         c = arm[2, i]
         l_i = arm[1, i]
+        ww = w * w
         # r = c u, a_c = a_o + wd * (perp r) - w^2 r
-        work[2, i] = ax + wd * (-c * sphi[i]) - w * w * c * cphi[i]
-        work[3, i] = ay + wd * (c * cphi[i]) - w * w * c * sphi[i]
+        work[2, i] = VM._fma(-wd, c * sphi[i], VM._fma(-ww, c * cphi[i], ax))
+        work[3, i] = VM._fma(wd, c * cphi[i], VM._fma(-ww, c * sphi[i], ay))
         work[4, i] = wd
-        ax = ax + wd * (-l_i * sphi[i]) - w * w * l_i * cphi[i]
-        ay = ay + wd * (l_i * cphi[i]) - w * w * l_i * sphi[i]
+        ax = VM._fma(-wd, l_i * sphi[i], VM._fma(-ww, l_i * cphi[i], ax))
+        ay = VM._fma(wd, l_i * cphi[i], VM._fma(-ww, l_i * sphi[i], ay))
     # backward pass: force f_i transmitted by joint i onto link i, moment n_i about joint i
     fx = 0.0
     fy = 0.0
@@ -294,12 +300,9 @@ def _rnea_from_angles(
         gx = m * work[2, i]
         gy = m * work[3, i]
         # moment about joint i: I wd + r_c x (m a_c) + r_l x f_{i+1} + n_{i+1}
-        mom = (
-            arm[3, i] * work[4, i]
-            + c * (cphi[i] * gy - sphi[i] * gx)
-            + l_i * (cphi[i] * fy - sphi[i] * fx)
-            + mom
-        )
+        rc = VM._fma(cphi[i], gy, -(sphi[i] * gx))
+        rl = VM._fma(cphi[i], fy, -(sphi[i] * fx))
+        mom = VM._fma(arm[3, i], work[4, i], VM._fma(c, rc, VM._fma(l_i, rl, mom)))
         fx += gx
         fy += gy
         out[i] = mom
