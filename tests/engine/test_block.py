@@ -309,6 +309,25 @@ def test_the_blocks_spectral_share_equals_the_metrics_one_on_hard_series() -> No
     assert np.all(np.abs(resid @ ta) <= 4 * eps * (size @ np.abs(ta)))
 
 
+def test_a_series_spectrum_does_not_depend_on_its_block() -> None:
+    """BK._spectra (ducc0's r2c) is numpy's rfft to rounding, and a series' spectrum is the
+    same bits whatever the block around it: any number of runs (odd series counts too, which
+    ducc0 would finish one at a time), at any row, through a block's buffer or without one."""
+    rng = np.random.default_rng(5)
+    n, nn = 3, 4001
+    series = rng.normal(size=(BK.W, n, nn)) * 30.0 + 5.0
+    work = BK.SpectrumWork(BK.W, nn + 1, n)
+    work.trace[:] = series
+    full = BK._spectra(work.trace, work).copy()
+    ref = np.fft.rfft(series, axis=-1)
+    assert np.max(np.abs(full - ref)) <= 1e-14 * np.max(np.abs(ref))
+    for runs in (1, 2, 3, 5, 16):
+        rows = rng.choice(BK.W, runs, replace=False)
+        work.trace[:runs] = series[rows]
+        np.testing.assert_array_equal(BK._spectra(work.trace[:runs], work), full[rows])
+        np.testing.assert_array_equal(BK._spectra(series[rows], None), full[rows])
+
+
 def test_the_kernels_rk4_step_is_the_one_compiled_before_it() -> None:
     """compiled() compiles the RK4 step (the articulated-body passes) at LLVM's own choice
     before the kernel, whose other lane loops it interleaves (BK._interleaved): the kernel must
